@@ -1,0 +1,70 @@
+"""Identifiability: local sensitivities and collinearity, profile likelihoods,
+posterior-versus-prior measures, and the comparison of experiments (tension, cross-prediction), plus
+the propagation of stereological uncertainty.
+
+Layer: imports mechanics and inference, never plotting or cli.
+"""
+
+from bayestissue.identifiability.compare import (
+    coverage,
+    gaussian_loglik,
+    log_predictive_density,
+    predictive_band,
+    psis_leave_out,
+    tension,
+)
+from bayestissue.identifiability.posterior import (
+    bhattacharyya,
+    bound_flags,
+    contraction,
+    correlation_matrix,
+    kl_divergence,
+    principal_angles,
+    uninformed,
+)
+from bayestissue.identifiability.profile import (
+    CHI2_1_95,
+    ProfileOptions,
+    ProfileResult,
+    classify_profile,
+    fit_least_squares,
+    profile_likelihood,
+)
+from bayestissue.identifiability.sensitivity import (
+    SensitivityAnalysis,
+    analyse_sensitivities,
+    collinearity_index,
+    collinearity_table,
+    informed_directions,
+    largest_identifiable_subsets,
+    scaled_sensitivities,
+)
+
+__all__ = [
+    "CHI2_1_95",
+    "ProfileOptions",
+    "ProfileResult",
+    "SensitivityAnalysis",
+    "analyse_sensitivities",
+    "bhattacharyya",
+    "bound_flags",
+    "classify_profile",
+    "collinearity_index",
+    "collinearity_table",
+    "contraction",
+    "correlation_matrix",
+    "coverage",
+    "fit_least_squares",
+    "gaussian_loglik",
+    "informed_directions",
+    "kl_divergence",
+    "largest_identifiable_subsets",
+    "log_predictive_density",
+    "predictive_band",
+    "principal_angles",
+    "profile_likelihood",
+    "psis_leave_out",
+    "scaled_sensitivities",
+    "tension",
+    "uninformed",
+]

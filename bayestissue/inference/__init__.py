@@ -1,0 +1,62 @@
+"""Bayesian calibration: parameters and box priors, likelihoods, the calibration problem, least-squares warm
+start, emcee ensemble sampling, diagnostics and summaries.
+
+The stages share one :class:`CalibrationProblem` (experiments with forward callables + a
+:class:`ParameterSet` + noise models); nothing here depends on the mechanics internals.
+"""
+
+from bayestissue.inference.diagnostics import ConvergenceReport, assess_convergence
+from bayestissue.inference.likelihood import (
+    NOISE_MODELS,
+    AR1Noise,
+    GaussianNoise,
+    NoiseModel,
+    StudentTNoise,
+    make_noise,
+)
+from bayestissue.inference.parameters import ParameterSet, ParameterSpec, paper_parameter_set
+from bayestissue.inference.priors import PRIORS, LogUniformPrior, UniformPrior
+from bayestissue.inference.problem import CalibrationProblem, ExperimentTerm
+from bayestissue.inference.sampling import (
+    MOVES,
+    PosteriorSample,
+    SamplerOptions,
+    initial_walkers,
+    run_ensemble,
+    sample_posterior,
+)
+from bayestissue.inference.warmstart import (
+    LeastSquaresResult,
+    MultistartResult,
+    fit_least_squares,
+    fit_multistart,
+)
+
+__all__ = [
+    "AR1Noise",
+    "CalibrationProblem",
+    "ConvergenceReport",
+    "ExperimentTerm",
+    "GaussianNoise",
+    "LeastSquaresResult",
+    "LogUniformPrior",
+    "MOVES",
+    "MultistartResult",
+    "NOISE_MODELS",
+    "NoiseModel",
+    "PRIORS",
+    "ParameterSet",
+    "ParameterSpec",
+    "PosteriorSample",
+    "SamplerOptions",
+    "StudentTNoise",
+    "UniformPrior",
+    "assess_convergence",
+    "fit_least_squares",
+    "fit_multistart",
+    "initial_walkers",
+    "make_noise",
+    "paper_parameter_set",
+    "run_ensemble",
+    "sample_posterior",
+]

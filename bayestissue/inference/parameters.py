@@ -1,0 +1,397 @@
+"""Parameter specifications, the box, and the map to an unconstrained sampling space with its log-Jacobian.
+
+Every sampled parameter :math:`x \\in [a, b]` is mapped to :math:`z \\in \\mathbb{R}` through the box scaled to
+:math:`[0, 1]` (linearly, or in :math:`\\log x` for ``scale="log"``) followed by the logit:
+
+.. math::
+
+    u = \\frac{g(x) - g(a)}{g(b) - g(a)}, \\qquad z = \\operatorname{logit} u = \\log\\frac{u}{1 - u},
+    \\qquad g(x) = x \\text{ or } \\log x .
+
+The sampler works in :math:`z`, so the target density there carries the log-Jacobian of the inverse map
+
+.. math::
+
+    \\log\\left|\\frac{dx}{dz}\\right| = \\log \\sigma(z) + \\log \\sigma(-z) + \\log(g(b) - g(a))
+    + [\\text{scale} = \\log]\\, \\log x,
+
+with :math:`\\sigma` the logistic function. Forgetting it ("the classic Jacobian mistake") samples the wrong
+prior; ``tests/inference/test_parameters.py`` catches it with a KS test on draws from the sampler's own path.
+
+The scaling is also the paper's (Section 2.7.1): the least-squares warm start scales each parameter by its
+initial guess, :math:`s_i = \\alpha_i^0`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.special import expit, log_expit, logit
+
+from bayestissue._validation import ValidationError, check_finite
+from bayestissue.inference.priors import PRIORS, BoxPrior, make_prior
+
+__all__ = ["ParameterSpec", "ParameterSet", "SCALES", "paper_parameter_set"]
+
+#: Scalings of the box before the logit: ``linear`` (g(x) = x) or ``log`` (g(x) = log x, needs lower > 0).
+SCALES = ("linear", "log")
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One parameter: name, unit, box, prior, and whether it is sampled or held fixed.
+
+    Parameters
+    ----------
+    name : str
+        Identifier (``mu``, ``ginf2``, ``sigma_T1`` ...).
+    unit : str
+        Unit string (``kPa``, ``1/s``, ``1``, ``mm``).
+    lower, upper : float
+        The box :math:`[a, b]` (paper Table 1 by default), ``lower < upper``.
+    prior : {"uniform", "loguniform"}
+        Density on the box (see :mod:`bayestissue.inference.priors`).
+    scale : {"linear", "log"} or None
+        Scaling of the box before the logit; ``None`` picks ``log`` for log-uniform priors, else ``linear``.
+    value : float or None
+        Initial guess (sampled) or the held value (fixed); must lie in the box.
+    fixed : bool
+        Hold the parameter at ``value`` instead of sampling it.
+    """
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    prior: str = "uniform"
+    scale: str | None = None
+    value: float | None = None
+    fixed: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.isidentifier():
+            raise ValidationError("parameter name", self.name, "a Python identifier such as 'mu'")
+        lo = check_finite(f"{self.name} lower bound", self.lower)
+        hi = check_finite(f"{self.name} upper bound", self.upper)
+        if not lo < hi:
+            raise ValidationError(
+                f"{self.name} bounds", [lo, hi], "lower < upper", "the bounds look inverted"
+            )
+        if self.prior not in PRIORS:
+            raise ValidationError(f"{self.name} prior", self.prior, f"one of {sorted(PRIORS)}")
+        scale = self.scale or ("log" if self.prior == "loguniform" else "linear")
+        if scale not in SCALES:
+            raise ValidationError(f"{self.name} scale", self.scale, f"one of {list(SCALES)}")
+        if (scale == "log" or self.prior == "loguniform") and lo <= 0:
+            raise ValidationError(
+                f"{self.name} lower bound", lo, "a number > 0 for a log-uniform prior or log scale"
+            )
+        object.__setattr__(self, "scale", scale)
+        object.__setattr__(self, "lower", lo)
+        object.__setattr__(self, "upper", hi)
+        if self.value is not None:
+            v = check_finite(f"{self.name} value", self.value)
+            if not lo <= v <= hi:
+                raise ValidationError(
+                    f"{self.name} initial/fixed value", v, f"a value inside the box [{lo}, {hi}]"
+                )
+            object.__setattr__(self, "value", v)
+        elif self.fixed:
+            raise ValidationError(f"{self.name} value", None, "a value for a fixed parameter")
+
+    @property
+    def prior_dist(self) -> BoxPrior:
+        """The prior as a :class:`~bayestissue.inference.priors.BoxPrior` object."""
+        return make_prior(self.prior, self.lower, self.upper)
+
+
+@dataclass(frozen=True)
+class ParameterSet:
+    """An ordered collection of :class:`ParameterSpec` with the transforms used by the sampler.
+
+    ``theta`` always means the *sampled* parameters in their natural units, shape ``(n_sets, n_sampled)``
+    (or ``(n_sampled,)``); :meth:`expand` inserts the fixed values to give the full vector in the order of
+    :attr:`specs`. ``fixed_inputs`` records inputs that are not parameters (volume fractions, fibre
+    directions, K, eps0 ...) for the provenance of the results.
+    """
+
+    specs: tuple[ParameterSpec, ...]
+    fixed_inputs: Mapping = field(default_factory=dict)
+
+    def __post_init__(self):
+        specs = tuple(self.specs)
+        if not specs or not all(isinstance(s, ParameterSpec) for s in specs):
+            raise ValidationError("parameters", specs, "a non-empty sequence of ParameterSpec")
+        names = [s.name for s in specs]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValidationError("parameter names", names, "unique names", f"duplicated: {dup}")
+        object.__setattr__(self, "specs", specs)
+        object.__setattr__(self, "fixed_inputs", dict(self.fixed_inputs))
+
+    # ---- bookkeeping -------------------------------------------------------------------------------
+    @property
+    def names(self) -> tuple[str, ...]:
+        """All parameter names, sampled and fixed, in order."""
+        return tuple(s.name for s in self.specs)
+
+    @property
+    def sampled(self) -> tuple[ParameterSpec, ...]:
+        return tuple(s for s in self.specs if not s.fixed)
+
+    @property
+    def sampled_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.sampled)
+
+    @property
+    def fixed_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.specs if s.fixed)
+
+    @property
+    def n_sampled(self) -> int:
+        return len(self.sampled)
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower bounds of the sampled parameters."""
+        return np.array([s.lower for s in self.sampled])
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper bounds of the sampled parameters."""
+        return np.array([s.upper for s in self.sampled])
+
+    @property
+    def initial(self) -> np.ndarray:
+        """Initial guess of the sampled parameters (box centre in the scaled space where none is given)."""
+        u_mid = np.full(self.n_sampled, 0.5)
+        mid = self._from_unit(u_mid)
+        return np.array([s.value if s.value is not None else m for s, m in zip(self.sampled, mid)])
+
+    def index(self, name: str) -> int:
+        """Position of ``name`` among the sampled parameters."""
+        names = self.sampled_names
+        if name not in names:
+            raise ValidationError("parameter name", name, f"one of the sampled parameters {names}")
+        return names.index(name)
+
+    def updated(
+        self,
+        *,
+        fixed: Mapping[str, float] | Iterable[str] | None = None,
+        sampled: Iterable[str] | None = None,
+        bounds: Mapping[str, Sequence[float]] | None = None,
+        priors: Mapping[str, str] | None = None,
+        initial: Mapping[str, float] | None = None,
+        fixed_inputs: Mapping | None = None,
+    ) -> ParameterSet:
+        """Return a copy with some parameters fixed, freed, re-bounded, re-priored or re-initialised.
+
+        Parameters
+        ----------
+        fixed : mapping name -> value, or names (held at their current ``value``).
+        sampled : names to sample (a parameter cannot be both in ``fixed`` and ``sampled``).
+        bounds : mapping name -> ``(lower, upper)``.
+        priors : mapping name -> prior name.
+        initial : mapping name -> initial value.
+        fixed_inputs : entries merged into :attr:`fixed_inputs`.
+
+        Raises
+        ------
+        ValidationError
+            For unknown names, a name both fixed and sampled, inverted bounds or a value outside the box.
+        """
+        known = set(self.names)
+        fixed_map = dict(fixed) if isinstance(fixed, Mapping) else {n: None for n in (fixed or ())}
+        sampled = list(sampled or ())
+        for label, names in (
+            ("fixed", fixed_map),
+            ("sampled", sampled),
+            ("bounds", bounds or {}),
+            ("priors", priors or {}),
+            ("initial", initial or {}),
+        ):
+            unknown = sorted(set(names) - known)
+            if unknown:
+                raise ValidationError(
+                    f"{label} parameter names", unknown, f"names among {list(self.names)}"
+                )
+        both = sorted(set(fixed_map) & set(sampled))
+        if both:
+            raise ValidationError(
+                "parameters", both, "each parameter either fixed or sampled, not both"
+            )
+        new = []
+        for s in self.specs:
+            kw = {}
+            if s.name in (bounds or {}):
+                b = tuple(bounds[s.name])
+                if len(b) != 2:
+                    raise ValidationError(f"{s.name} bounds", b, "a pair [lower, upper]")
+                kw.update(lower=b[0], upper=b[1])
+            if s.name in (priors or {}):
+                kw["prior"] = priors[s.name]
+                if priors[s.name] == "loguniform":
+                    kw["scale"] = "log"
+            if s.name in (initial or {}):
+                kw["value"] = initial[s.name]
+            if s.name in fixed_map:
+                kw["fixed"] = True
+                if fixed_map[s.name] is not None:
+                    kw["value"] = fixed_map[s.name]
+            if s.name in sampled:
+                kw["fixed"] = False
+            new.append(replace(s, **kw) if kw else s)
+        inputs = dict(self.fixed_inputs)
+        inputs.update(fixed_inputs or {})
+        return ParameterSet(tuple(new), inputs)
+
+    # ---- vectors -----------------------------------------------------------------------------------
+    def _check_theta(self, theta) -> np.ndarray:
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape[-1:] != (self.n_sampled,) or theta.ndim > 2:
+            raise ValidationError(
+                "theta", f"array of shape {theta.shape}", f"shape (n_sets, {self.n_sampled})"
+            )
+        return theta
+
+    def expand(self, theta) -> np.ndarray:
+        """Insert the fixed values: ``(..., n_sampled) -> (..., n_total)`` in the order of :attr:`specs`."""
+        theta = self._check_theta(theta)
+        out = np.empty(theta.shape[:-1] + (len(self.specs),))
+        j = 0
+        for i, s in enumerate(self.specs):
+            if s.fixed:
+                out[..., i] = s.value
+            else:
+                out[..., i] = theta[..., j]
+                j += 1
+        return out
+
+    def _g(self):
+        """Per sampled parameter: (is_log, g(a), g(b))."""
+        is_log = np.array([s.scale == "log" for s in self.sampled])
+        lo, hi = self.lower, self.upper
+        ga = np.where(is_log, np.log(np.where(is_log, lo, 1.0)), lo)
+        gb = np.where(is_log, np.log(np.where(is_log, hi, 1.0)), hi)
+        return is_log, ga, gb
+
+    def _to_unit(self, theta) -> np.ndarray:
+        is_log, ga, gb = self._g()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = np.where(is_log, np.log(np.where(is_log, theta, 1.0)), theta)
+        return (g - ga) / (gb - ga)
+
+    def _from_unit(self, u) -> np.ndarray:
+        is_log, ga, gb = self._g()
+        g = ga + np.asarray(u, dtype=float) * (gb - ga)
+        x = np.where(is_log, np.exp(np.where(is_log, g, 0.0)), g)
+        return np.clip(x, self.lower, self.upper)
+
+    def to_unit(self, theta) -> np.ndarray:
+        """Scaled box coordinates :math:`u \\in [0, 1]` (linear or log scale per parameter)."""
+        return self._to_unit(self._check_theta(theta))
+
+    def from_unit(self, u) -> np.ndarray:
+        """Inverse of :meth:`to_unit`."""
+        return self._from_unit(self._check_theta(u))
+
+    def to_unconstrained(self, theta) -> np.ndarray:
+        """:math:`z = \\operatorname{logit} u(x)`; points on the bounds map to :math:`\\pm\\infty`."""
+        u = self.to_unit(theta)
+        with np.errstate(divide="ignore"):
+            return logit(u)
+
+    def from_unconstrained(self, z) -> np.ndarray:
+        """:math:`x = g^{-1}(g(a) + \\sigma(z) (g(b) - g(a)))`."""
+        return self._from_unit(expit(self._check_theta(z)))
+
+    def log_abs_det_jacobian(self, z) -> np.ndarray:
+        """:math:`\\sum_i \\log|dx_i/dz_i|` at ``z``; shape ``z.shape[:-1]``."""
+        z = self._check_theta(z)
+        is_log, ga, gb = self._g()
+        x = self.from_unconstrained(z)
+        terms = log_expit(z) + log_expit(-z) + np.log(gb - ga)
+        terms = terms + np.where(is_log, np.log(np.where(is_log, x, 1.0)), 0.0)
+        return terms.sum(axis=-1)
+
+    def log_prior(self, theta) -> np.ndarray:
+        """Sum of the prior log-densities of the sampled parameters; ``-inf`` outside the box."""
+        theta = self._check_theta(theta)
+        total = np.zeros(theta.shape[:-1])
+        for j, s in enumerate(self.sampled):
+            total = total + s.prior_dist.logpdf(theta[..., j])
+        return total
+
+    def log_prior_unconstrained(self, z) -> np.ndarray:
+        """Prior log-density of ``z``: :math:`\\log p(x(z)) + \\log|dx/dz|`."""
+        return self.log_prior(self.from_unconstrained(z)) + self.log_abs_det_jacobian(z)
+
+    def sample_prior(self, n: int, *, rng=None) -> np.ndarray:
+        """``n`` independent prior draws of the sampled parameters, shape ``(n, n_sampled)``."""
+        rng = np.random.default_rng(rng)
+        return np.column_stack([s.prior_dist.sample(n, rng=rng) for s in self.sampled])
+
+    def describe(self) -> list[dict]:
+        """One dict per parameter (name, unit, bounds, prior, scale, value, fixed) for provenance."""
+        return [
+            {
+                "name": s.name,
+                "unit": s.unit,
+                "lower": s.lower,
+                "upper": s.upper,
+                "prior": s.prior,
+                "scale": s.scale,
+                "value": math.nan if s.value is None else s.value,
+                "fixed": s.fixed,
+            }
+            for s in self.specs
+        ]
+
+
+def paper_parameter_set(
+    n_fibres: int = 3, *, prior: str = "default", fixed_inputs: Mapping | None = None
+) -> ParameterSet:
+    """The paper's parameters with Table 1 bounds and the paper's initial guess as ``value``.
+
+    Parameters
+    ----------
+    n_fibres : number of fibre systems (3 in the paper: 2 + 3 n_f parameters).
+    prior : ``"default"`` (log-uniform for the positive scale parameters mu, kappa, ginf_k, beta_k and uniform
+        for gamma_k) or ``"uniform"`` (uniform on the box for all: the literal reading of the paper's
+        constraints).
+    fixed_inputs : recorded non-parameter inputs (volume fractions, directions, K, eps0).
+
+    References
+    ----------
+    Paper Section 3.2 and Table 1; bounds and initial guess from ``bayestissue.mechanics.PAPER_BOUNDS`` and
+    ``PAPER_PARAMETERS["initial"]``.
+    """
+    from bayestissue.mechanics import PAPER_BOUNDS, PAPER_PARAMETERS, PARAM_UNITS, param_names
+
+    if prior not in ("default", "uniform"):
+        raise ValidationError("prior", prior, "'default' or 'uniform'")
+    names = param_names(n_fibres)
+    bounds = np.asarray(PAPER_BOUNDS, dtype=float)
+    init = np.asarray(PAPER_PARAMETERS["initial"], dtype=float)
+    if bounds.shape[0] != len(names):
+        raise ValidationError("n_fibres", n_fibres, f"{(bounds.shape[0] - 2) // 3} (Table 1)")
+    specs = []
+    for i, name in enumerate(names):
+        prefix = name.rstrip("0123456789")
+        p = "uniform" if (prior == "uniform" or prefix == "gamma") else "loguniform"
+        specs.append(
+            ParameterSpec(
+                name=name,
+                unit=PARAM_UNITS[prefix],
+                lower=bounds[i, 0],
+                upper=bounds[i, 1],
+                prior=p,
+                scale="linear" if prefix == "gamma" else "log",
+                value=init[i],
+            )
+        )
+    return ParameterSet(tuple(specs), dict(fixed_inputs or {}))

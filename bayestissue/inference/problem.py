@@ -1,0 +1,284 @@
+"""The calibration problem: experiments + parameter specification + noise models -> log-posterior.
+
+The problem object is the one thing the stages share (warm start, sampler, identifiability): it knows nothing
+about mechanics. Each experiment brings a *forward* callable
+
+    ``forward(params) -> predictions``,  ``params`` ``(n_sets, n_material)`` -> ``(n_sets, n_obs)``,
+
+with a NaN row for a parameter set whose solve failed (``functools.partial(mechanics.simulate, experiment)``
+is one). ``n_material`` counts all material parameters, fixed ones included, in the order of the material
+:class:`~bayestissue.inference.parameters.ParameterSet`.
+
+The sampled vector ``theta`` is the sampled material parameters followed by each experiment's sampled nuisance
+parameters (``sigma_<name>``, ``rho_<name>``). The posterior is
+
+.. math::
+
+    \\log p(\\theta \\mid y) = \\sum_{e} \\sum_t \\log p(y_{e,t} \\mid u_{e,t}(\\theta_m), \\theta_{n,e})
+    + \\sum_i \\log p_i(\\theta_i) + \\text{const},
+
+with box priors (:mod:`bayestissue.inference.priors`); the sampler targets it in the unconstrained space
+:math:`z` with the log-Jacobian added (:meth:`CalibrationProblem.log_posterior_unconstrained`). A failed
+forward solve gives :math:`-\\infty` and is counted in :attr:`CalibrationProblem.n_failed`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bayestissue._validation import ValidationError
+from bayestissue.inference.likelihood import GaussianNoise, NoiseModel, _tag
+from bayestissue.inference.parameters import ParameterSet
+
+__all__ = ["ExperimentTerm", "CalibrationProblem"]
+
+
+@dataclass(frozen=True)
+class ExperimentTerm:
+    """One experiment in the likelihood.
+
+    Parameters
+    ----------
+    name : str
+        Label (``T1``); names the nuisance parameters and the output variables.
+    time_s : (n_obs,) ndarray
+        Data times.
+    observed : (n_obs,) ndarray
+        Observed displacement (mm); must be finite.
+    forward : callable
+        ``(n_sets, n_material) -> (n_sets, n_obs)`` predictions, NaN rows for failed solves.
+    noise : NoiseModel
+        Residual model (default: Gaussian with unknown sd).
+    meta : dict
+        Free-form provenance (data file, hash ...).
+    """
+
+    name: str
+    time_s: np.ndarray
+    observed: np.ndarray
+    forward: Callable[[np.ndarray], np.ndarray]
+    noise: NoiseModel = field(default_factory=GaussianNoise)
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        t = np.asarray(self.time_s, dtype=float)
+        y = np.asarray(self.observed, dtype=float)
+        if y.ndim != 1 or y.shape != t.shape or y.size < 2:
+            raise ValidationError(
+                f"experiment {self.name} data",
+                f"time shape {t.shape}, observed shape {y.shape}",
+                "two 1-D arrays of equal length >= 2",
+            )
+        bad = np.flatnonzero(~np.isfinite(y))
+        if bad.size:
+            raise ValidationError(
+                f"experiment {self.name} observed displacement",
+                f"{y[bad[0]]} at row {bad[0]}",
+                "finite values",
+                f"{bad.size} non-finite value(s); remove or interpolate them",
+            )
+        if not np.all(np.isfinite(t)):
+            raise ValidationError(f"experiment {self.name} time_s", "non-finite", "finite values")
+        if not callable(self.forward):
+            raise ValidationError(f"experiment {self.name} forward", self.forward, "a callable")
+        if not isinstance(self.noise, NoiseModel):
+            raise ValidationError(f"experiment {self.name} noise", self.noise, "a NoiseModel")
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "observed", y)
+
+
+class CalibrationProblem:
+    """Experiments sharing material parameters, each with its own noise model.
+
+    Parameters
+    ----------
+    experiments : sequence of ExperimentTerm
+        One or several experiments (unique names).
+    material : ParameterSet
+        Material parameters (the forward models' inputs), sampled and fixed.
+
+    Attributes
+    ----------
+    parameters : ParameterSet
+        Material parameters followed by the experiments' nuisance parameters.
+    n_evaluations, n_failed : int
+        Parameter sets evaluated by the forward models and how many of them failed (NaN predictions).
+    """
+
+    def __init__(self, experiments: Sequence[ExperimentTerm], material: ParameterSet):
+        experiments = tuple(experiments)
+        if not experiments or not all(isinstance(e, ExperimentTerm) for e in experiments):
+            raise ValidationError("experiments", experiments, "a non-empty sequence of ExperimentTerm")
+        names = [_tag(e.name) for e in experiments]
+        if len(set(names)) != len(names):
+            raise ValidationError("experiment names", names, "unique names")
+        if not isinstance(material, ParameterSet):
+            raise ValidationError("material", material, "a ParameterSet")
+        self.experiments = experiments
+        self.material = material
+        nuisance = []
+        self._nuis_slices = []
+        start = material.n_sampled
+        for e in experiments:
+            specs = e.noise.nuisance_specs(e.name, e.observed)
+            self._nuis_slices.append(slice(start, start + len(specs)))
+            start += len(specs)
+            nuisance.extend(specs)
+        self.parameters = ParameterSet(material.specs + tuple(nuisance), material.fixed_inputs)
+        self.n_evaluations = 0
+        self.n_failed = 0
+
+    # ---- layout ------------------------------------------------------------------------------------
+    @property
+    def ndim(self) -> int:
+        """Number of sampled parameters (material + nuisance)."""
+        return self.parameters.n_sampled
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names of the sampled parameters, in the order of ``theta``."""
+        return self.parameters.sampled_names
+
+    @property
+    def n_material(self) -> int:
+        """Number of sampled material parameters (the first entries of ``theta``)."""
+        return self.material.n_sampled
+
+    @property
+    def n_obs(self) -> int:
+        return sum(e.observed.size for e in self.experiments)
+
+    def _batch(self, theta) -> tuple[np.ndarray, bool]:
+        theta = np.asarray(theta, dtype=float)
+        single = theta.ndim == 1
+        theta = np.atleast_2d(theta)
+        if theta.ndim != 2 or theta.shape[1] != self.ndim:
+            raise ValidationError(
+                "theta", f"array of shape {np.shape(theta)}", f"shape (n_sets, {self.ndim})"
+            )
+        return theta, single
+
+    def material_full(self, theta) -> np.ndarray:
+        """Forward-model input ``(n_sets, n_material_total)`` with the fixed values inserted."""
+        theta, _ = self._batch(theta)
+        return self.material.expand(theta[:, : self.n_material])
+
+    # ---- forward and likelihood --------------------------------------------------------------------
+    def predict_material(self, theta_material) -> list[np.ndarray]:
+        """Predictions per experiment from the sampled *material* parameters ``(n_sets, n_material)``."""
+        tm = np.atleast_2d(np.asarray(theta_material, dtype=float))
+        full = self.material.expand(tm)
+        out = []
+        for e in self.experiments:
+            pred = np.asarray(e.forward(full), dtype=float).reshape(full.shape[0], -1)
+            if pred.shape[1] != e.observed.size:
+                raise ValidationError(
+                    f"experiment {e.name} forward output",
+                    f"shape {pred.shape}",
+                    f"(n_sets, {e.observed.size})",
+                )
+            out.append(pred)
+        ok = np.all([np.all(np.isfinite(p), axis=1) for p in out], axis=0)
+        self.n_evaluations += int(full.shape[0])
+        self.n_failed += int(np.count_nonzero(~ok))
+        return out
+
+    def predict(self, theta) -> list[np.ndarray]:
+        """Predictions per experiment, each ``(n_sets, n_obs_e)`` (NaN rows for failed solves)."""
+        theta, _ = self._batch(theta)
+        return self.predict_material(theta[:, : self.n_material])
+
+    def nuisance(self, theta, k: int) -> np.ndarray:
+        """Nuisance block ``(n_sets, n_nuisance_k)`` of experiment ``k``."""
+        theta, _ = self._batch(theta)
+        return theta[:, self._nuis_slices[k]]
+
+    def log_likelihood_pointwise(self, theta, predictions=None) -> list[np.ndarray]:
+        """Pointwise log-likelihood per experiment, each ``(n_sets, n_obs_e)``; ``-inf`` for failed rows."""
+        theta, _ = self._batch(theta)
+        preds = self.predict(theta) if predictions is None else predictions
+        out = []
+        for k, (e, pred) in enumerate(zip(self.experiments, preds)):
+            resid = pred - e.observed
+            with np.errstate(invalid="ignore", over="ignore"):
+                ll = e.noise.loglik_pointwise(resid, self.nuisance(theta, k))
+            ll[~np.isfinite(ll)] = -np.inf
+            out.append(ll)
+        return out
+
+    def log_likelihood(self, theta) -> np.ndarray:
+        """Total log-likelihood ``(n_sets,)`` (a float for a 1-D ``theta``)."""
+        theta, single = self._batch(theta)
+        total = sum(ll.sum(axis=1) for ll in self.log_likelihood_pointwise(theta))
+        return float(total[0]) if single else total
+
+    def log_prior(self, theta) -> np.ndarray:
+        """Box-prior log-density of ``theta`` (natural units); ``-inf`` outside the box."""
+        theta, single = self._batch(theta)
+        lp = self.parameters.log_prior(theta)
+        return float(lp[0]) if single else lp
+
+    def log_posterior(self, theta) -> np.ndarray:
+        """Unnormalised log-posterior in natural units; the forward model is only run inside the box."""
+        theta, single = self._batch(theta)
+        lp = self.parameters.log_prior(theta)
+        inside = np.isfinite(lp)
+        out = np.full(theta.shape[0], -np.inf)
+        if np.any(inside):
+            out[inside] = lp[inside] + self.log_likelihood(theta[inside])
+        out[~np.isfinite(out)] = -np.inf
+        return float(out[0]) if single else out
+
+    def log_posterior_unconstrained(self, z) -> np.ndarray:
+        """The sampler's target: :math:`\\log p(\\theta(z) \\mid y) + \\log|d\\theta/dz|`, ``(n_sets,)``."""
+        z, single = self._batch(z)
+        theta = self.parameters.from_unconstrained(z)
+        out = self.log_posterior(theta) + self.parameters.log_abs_det_jacobian(z)
+        out[~np.isfinite(out)] = -np.inf
+        return float(out[0]) if single else out
+
+    # ---- least-squares view ------------------------------------------------------------------------
+    def residual_scales(self) -> np.ndarray:
+        """Per-observation divisor for the least-squares residuals: the known sd, else 1 (the paper)."""
+        return np.concatenate(
+            [np.full(e.observed.size, e.noise.sd or 1.0) for e in self.experiments]
+        )
+
+    def residuals(self, theta_material, *, fail_value: float = 1e6) -> np.ndarray:
+        """Stacked scaled residuals ``(n_sets, n_obs)`` of the material parameters (paper eq. 11).
+
+        Failed solves give ``fail_value`` (the least-squares solver cannot take NaN); they are counted.
+        """
+        preds = self.predict_material(theta_material)
+        r = np.concatenate([p - e.observed for p, e in zip(preds, self.experiments)], axis=1)
+        r = r / self.residual_scales()
+        r[~np.isfinite(r)] = fail_value
+        return r
+
+    def nuisance_estimate(self, theta_material) -> np.ndarray:
+        """Plug-in nuisance values from the residuals at ``theta_material`` (``(n_material,)``).
+
+        :math:`\\hat\\sigma^2 = \\mathrm{RSS}/n` per experiment and :math:`\\hat\\rho` the lag-one
+        autocorrelation of the residuals, clipped into their boxes. Returns the full ``theta``.
+        """
+        tm = np.asarray(theta_material, dtype=float).reshape(1, -1)
+        preds = self.predict_material(tm)
+        theta = np.empty(self.ndim)
+        theta[: self.n_material] = tm[0]
+        lo, hi = self.parameters.lower, self.parameters.upper
+        for k, (e, p) in enumerate(zip(self.experiments, preds)):
+            sl = self._nuis_slices[k]
+            names = self.names[sl]
+            r = p[0] - e.observed
+            for j, name in zip(range(sl.start, sl.stop), names):
+                if name.startswith("sigma_"):
+                    val = float(np.sqrt(np.mean(r**2)))
+                else:
+                    rc = r - r.mean()
+                    val = float(np.sum(rc[1:] * rc[:-1]) / max(np.sum(rc**2), 1e-300))
+                theta[j] = val
+        span = hi - lo
+        return np.clip(theta, lo + 1e-9 * span, hi - 1e-9 * span)

@@ -1,0 +1,478 @@
+"""Ensemble MCMC (emcee) of the calibration posterior: walkers, moves, checkpoints, automatic length.
+
+The sampler targets :meth:`CalibrationProblem.log_posterior_unconstrained` (the posterior in the unconstrained
+space with the log-Jacobian) with ``vectorize=True``, so every half-ensemble update is one batched forward call.
+
+* Walkers start around the least-squares optimum with scatter from its Laplace (Gauss-Newton) covariance, mapped
+  to :math:`z` by the Jacobian of the transform and clipped into the box (:func:`initial_walkers`).
+* Default moves: differential evolution 0.8 / DE-snooker 0.2 (ter Braak & Vrugt 2008,
+  doi:10.1007/s11222-008-9104-9; Nelson et al. 2014, doi:10.1088/0067-0049/210/1/11), which adapt to the strongly
+  correlated stiffness parameters better than the stretch move; selectable by name in :data:`MOVES`.
+* Seeded: ``sampler.random_state`` is set from the caller's Generator (emcee otherwise seeds from numpy's
+  global state): same seed, same chain.
+* Checkpoints: emcee ``HDFBackend`` (one group per ensemble); ``resume=True`` continues a killed run and gives the
+  same chain as an unbroken run, because the backend stores the random state with every step and the convergence
+  checks happen at fixed multiples of ``check_every``.
+* Automatic length: run until :math:`N \\ge 50 \\max_i \\hat\\tau_i` and every :math:`\\hat\\tau_i` changed by less
+  than 1 % since the previous check (Goodman & Weare 2010, doi:10.2140/camcos.2010.5.65; emcee's
+  autocorrelation tutorial), within ``max_steps``. Burn-in :math:`2\\max\\hat\\tau`, thinning
+  :math:`\\max(1, \\lfloor \\min\\hat\\tau / 2 \\rfloor)`.
+* Walkers of one ensemble are not independent chains, so :func:`sample_posterior` runs ``n_ensembles`` (>= 4 for
+  R-hat) independent ensembles, in parallel processes where cores allow.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing as mp
+import os
+import queue as _queue
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import emcee
+import numpy as np
+from emcee.autocorr import integrated_time
+
+from bayestissue._validation import ValidationError, check_positive
+from bayestissue.inference.problem import CalibrationProblem
+
+__all__ = [
+    "MOVES",
+    "SamplerOptions",
+    "EnsembleResult",
+    "PosteriorSample",
+    "initial_walkers",
+    "run_ensemble",
+    "sample_posterior",
+]
+
+#: Move mixtures by name: each entry builds the ``moves`` argument of ``emcee.EnsembleSampler``.
+MOVES: dict[str, Callable] = {
+    "de_snooker": lambda: [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)],
+    "de": lambda: emcee.moves.DEMove(),
+    "stretch": lambda: emcee.moves.StretchMove(),
+    "walk": lambda: emcee.moves.WalkMove(),
+    "kde": lambda: emcee.moves.KDEMove(),
+}
+
+
+@dataclass(frozen=True)
+class SamplerOptions:
+    """Options of the ensemble sampler (validated on construction).
+
+    Parameters
+    ----------
+    n_walkers : walkers per ensemble; default ``4 * ndim`` (at least ``2 * ndim + 2``), rounded up to even.
+    moves : name in :data:`MOVES` (default DE 0.8 / DE-snooker 0.2).
+    n_ensembles : independent ensembles (>= 4 for a between-ensemble R-hat).
+    n_processes : parallel processes; default ``min(n_ensembles, os.cpu_count())``.
+    max_steps : step cap per ensemble.
+    min_steps : minimum steps per ensemble.
+    check_every : steps between convergence checks.
+    tau_factor : required length in units of the largest autocorrelation time (50).
+    tau_rtol : required relative change of tau between checks (0.01).
+    scatter : multiplier of the Laplace sd for the initial walkers.
+    """
+
+    n_walkers: int | None = None
+    moves: str = "de_snooker"
+    n_ensembles: int = 4
+    n_processes: int | None = None
+    max_steps: int = 20000
+    min_steps: int = 0
+    check_every: int = 100
+    tau_factor: float = 50.0
+    tau_rtol: float = 0.01
+    scatter: float = 1.0
+
+    def __post_init__(self):
+        if self.moves not in MOVES:
+            raise ValidationError("moves", self.moves, f"one of {sorted(MOVES)}")
+        for name in ("n_ensembles", "max_steps", "check_every"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | np.integer) and v >= 1):
+                raise ValidationError(name, v, "an integer >= 1")
+        if self.n_walkers is not None and not (
+            isinstance(self.n_walkers, int | np.integer) and self.n_walkers >= 4
+        ):
+            raise ValidationError("n_walkers", self.n_walkers, "an integer >= 4 or None")
+        if self.n_processes is not None and not (
+            isinstance(self.n_processes, int | np.integer) and self.n_processes >= 1
+        ):
+            raise ValidationError("n_processes", self.n_processes, "an integer >= 1 or None")
+        check_positive("tau_factor", self.tau_factor)
+        check_positive("tau_rtol", self.tau_rtol)
+        check_positive("scatter", self.scatter)
+
+    def walkers(self, ndim: int) -> int:
+        """Walkers for ``ndim`` parameters (even, >= 2 ndim + 2)."""
+        n = self.n_walkers if self.n_walkers is not None else 4 * ndim
+        n = max(int(n), 2 * ndim + 2)
+        return n + (n % 2)
+
+
+def initial_walkers(
+    problem: CalibrationProblem,
+    center,
+    n_walkers: int,
+    *,
+    cov=None,
+    scatter: float = 1.0,
+    nuisance_sd_z: float = 0.1,
+    max_sd_z: float = 1.0,
+    min_sd_z: float = 1e-4,
+    rng=None,
+) -> np.ndarray:
+    """Initial walker positions in the unconstrained space, ``(n_walkers, ndim)``.
+
+    The centre :math:`\\hat\\theta` (natural units, clipped to :math:`u \\in [10^{-4}, 1 - 10^{-4}]` so a parameter
+    on its bound maps to a finite :math:`z`) is mapped to :math:`\\hat z`; the material block of ``cov``
+    (natural units, e.g. the Gauss-Newton covariance) is mapped by the transform's Jacobian
+    :math:`D = \\mathrm{diag}(dz/d\\theta)`, :math:`\\Sigma_z = D \\Sigma D`, its eigenvalues clipped to
+    ``[min_sd_z**2, max_sd_z**2]``; nuisance parameters get ``nuisance_sd_z``. Walkers with a non-finite
+    log-posterior are redrawn; the set passes emcee's linear-independence check.
+
+    Raises
+    ------
+    ValidationError
+        If ``center`` has the wrong shape or no valid walkers can be drawn.
+    """
+    rng = np.random.default_rng(rng)
+    pars = problem.parameters
+    center = np.asarray(center, dtype=float).ravel()
+    if center.shape != (problem.ndim,):
+        raise ValidationError("center", f"shape {center.shape}", f"shape ({problem.ndim},)")
+    u = np.clip(pars.to_unit(center), 1e-4, 1 - 1e-4)
+    theta_c = pars.from_unit(u)
+    z_c = np.log(u / (1 - u))
+    # dz/dtheta = 1 / (u (1-u) (g(b)-g(a)) [theta if log])
+    is_log = np.array([s.scale == "log" for s in pars.sampled])
+    lo, hi = pars.lower, pars.upper
+    span = np.where(is_log, np.log(hi / np.where(is_log, lo, 1.0)), hi - lo)
+    dzdx = 1.0 / (u * (1 - u) * span * np.where(is_log, theta_c, 1.0))
+    cov_z = np.diag(np.full(problem.ndim, nuisance_sd_z**2))
+    m = problem.n_material
+    if cov is not None:
+        cov = np.asarray(cov, dtype=float)
+        if cov.shape != (m, m):
+            raise ValidationError("cov", f"shape {cov.shape}", f"shape ({m}, {m}) (material block)")
+        block = dzdx[:m, None] * cov * dzdx[None, :m]
+        block = np.where(np.isfinite(block), block, 0.0)
+        block = 0.5 * (block + block.T)
+        w, v = np.linalg.eigh(block)
+        w = np.clip(w, min_sd_z**2, max_sd_z**2)
+        cov_z[:m, :m] = (v * w) @ v.T
+    else:
+        cov_z[:m, :m] = np.diag(np.full(m, (0.1 * max_sd_z) ** 2))
+    chol = np.linalg.cholesky(cov_z * scatter**2)
+    walkers = z_c + rng.standard_normal((n_walkers, problem.ndim)) @ chol.T
+    for _ in range(20):
+        lp = problem.log_posterior_unconstrained(walkers)
+        bad = ~np.isfinite(lp)
+        if not np.any(bad) and emcee.ensemble.walkers_independent(walkers):
+            return walkers
+        walkers[bad] = z_c + rng.standard_normal((int(bad.sum()), problem.ndim)) @ chol.T
+        if not np.any(bad):  # degenerate: add jitter
+            walkers += 1e-3 * rng.standard_normal(walkers.shape)
+    raise ValidationError(
+        "initial walkers",
+        f"{int(bad.sum())} of {n_walkers} with -inf log-posterior",
+        "finite log-posterior at the start",
+        "check the centre (least-squares estimate) and the forward model",
+    )
+
+
+@dataclass
+class EnsembleResult:
+    """One ensemble's run. Chains are stored thinned by ``store_thin`` (from tau) to keep results small.
+
+    Attributes
+    ----------
+    chain_z : (n_stored, n_walkers, ndim) positions in the unconstrained space (incl. burn-in).
+    log_prob : (n_stored, n_walkers) log-posterior in z (incl. log-Jacobian).
+    n_steps : steps run; store_thin : steps per stored row; burn_in : burn-in steps (2 max tau).
+    tau : (ndim,) integrated autocorrelation times (steps); tau_history : (n_checks, ndim).
+    acceptance : (n_walkers,) acceptance fraction per walker.
+    converged_length : ``n_steps >= tau_factor * max(tau)`` and tau stable to ``tau_rtol``.
+    """
+
+    ensemble_id: int
+    seed: int
+    chain_z: np.ndarray
+    log_prob: np.ndarray
+    n_steps: int
+    store_thin: int
+    burn_in: int
+    tau: np.ndarray
+    tau_history: np.ndarray
+    check_steps: np.ndarray
+    acceptance: np.ndarray
+    converged_length: bool
+    time_s: float
+    n_evaluations: int
+    n_failed: int
+    resumed_at: int = 0
+
+    def kept(self) -> tuple[np.ndarray, np.ndarray]:
+        """Post-burn-in stored rows: ``(chain_z, log_prob)`` with shapes ``(n, n_walkers, ndim)``, ``(n, nw)``."""
+        start = math.ceil(self.burn_in / self.store_thin)
+        return self.chain_z[start:], self.log_prob[start:]
+
+
+def _tau(chain: np.ndarray) -> np.ndarray:
+    return integrated_time(chain, c=5, tol=0, quiet=True)
+
+
+def run_ensemble(
+    problem: CalibrationProblem,
+    p0,
+    *,
+    options: SamplerOptions = SamplerOptions(),
+    seed: int = 0,
+    backend_path: str | Path | None = None,
+    ensemble_id: int = 0,
+    resume: bool = False,
+    progress: Callable[[int, int, int], None] | None = None,
+) -> EnsembleResult:
+    """Run one ensemble with automatic length, optionally checkpointed to HDF5.
+
+    Parameters
+    ----------
+    problem : CalibrationProblem
+    p0 : (n_walkers, ndim) initial positions in the unconstrained space (ignored when resuming a run).
+    options : SamplerOptions
+    seed : integer seed of the sampler's RandomState.
+    backend_path : HDF5 file for emcee's ``HDFBackend`` (group ``ensemble_<id>``); None keeps it in memory.
+    resume : continue the run stored in ``backend_path`` instead of starting afresh.
+    progress : ``progress(ensemble_id, steps_done, max_steps)`` after every chunk.
+    """
+    p0 = np.asarray(p0, dtype=float)
+    n_walkers, ndim = p0.shape
+    if ndim != problem.ndim:
+        raise ValidationError("p0", f"shape {p0.shape}", f"(n_walkers, {problem.ndim})")
+    backend = None
+    resumed_at = 0
+    if backend_path is not None:
+        backend = emcee.backends.HDFBackend(str(backend_path), name=f"ensemble_{ensemble_id}")
+        if resume and Path(backend_path).exists():
+            try:
+                resumed_at = backend.iteration
+            except (KeyError, OSError):
+                resumed_at = 0
+        if resumed_at == 0:
+            backend.reset(n_walkers, ndim)
+    sampler = emcee.EnsembleSampler(
+        n_walkers,
+        ndim,
+        problem.log_posterior_unconstrained,
+        vectorize=True,
+        moves=MOVES[options.moves](),
+        backend=backend,
+    )
+    if resumed_at == 0:
+        sampler.random_state = np.random.RandomState(seed).get_state()
+        state = p0
+    else:
+        state = None
+    t0 = time.perf_counter()
+    n = sampler.iteration
+    taus, checks = [], []
+    converged = False
+    every = options.check_every
+    while n < options.max_steps:
+        n_next = min((n // every + 1) * every, options.max_steps)
+        sampler.run_mcmc(state, n_next - n, progress=False)
+        state = None
+        n = sampler.iteration
+        chain = sampler.get_chain()
+        tau = _tau(chain)
+        taus.append(tau)
+        checks.append(n)
+        if progress is not None:
+            progress(ensemble_id, n, options.max_steps)
+        if n >= every * 2 and n >= options.min_steps:
+            prev = _tau(chain[: n - every]) if n % every == 0 else taus[-2]
+            stable = np.all(np.abs(prev - tau) / tau < options.tau_rtol)
+            if n >= options.tau_factor * np.max(tau) and stable:
+                converged = True
+                break
+    chain = sampler.get_chain()
+    lp = sampler.get_log_prob()
+    tau = _tau(chain)
+    store_thin = max(1, int(np.min(tau) / 2))
+    burn = min(int(math.ceil(2 * np.max(tau))), n - store_thin)
+    return EnsembleResult(
+        ensemble_id=ensemble_id,
+        seed=int(seed),
+        chain_z=chain[::store_thin].copy(),
+        log_prob=lp[::store_thin].copy(),
+        n_steps=int(n),
+        store_thin=store_thin,
+        burn_in=max(burn, 0),
+        tau=tau,
+        tau_history=np.array(taus),
+        check_steps=np.array(checks),
+        acceptance=np.asarray(sampler.acceptance_fraction, dtype=float),
+        converged_length=converged,
+        time_s=time.perf_counter() - t0,
+        n_evaluations=problem.n_evaluations,
+        n_failed=problem.n_failed,
+        resumed_at=int(resumed_at),
+    )
+
+
+@dataclass
+class PosteriorSample:
+    """Independent ensembles of one posterior, with the parameter layout."""
+
+    names: tuple[str, ...]
+    ensembles: list[EnsembleResult]
+    problem: CalibrationProblem = field(repr=False)
+    time_s: float = 0.0
+    seeds: list[int] | None = None
+
+    @property
+    def n_failed(self) -> int:
+        return sum(e.n_failed for e in self.ensembles)
+
+    @property
+    def n_evaluations(self) -> int:
+        return sum(e.n_evaluations for e in self.ensembles)
+
+    def kept_z(self) -> np.ndarray:
+        """Post-burn-in draws, ``(n_ensembles, n_draws, n_walkers, ndim)`` in z (common length, last rows)."""
+        kept = [e.kept()[0] for e in self.ensembles]
+        n = min(k.shape[0] for k in kept)
+        return np.stack([k[k.shape[0] - n :] for k in kept])
+
+    def kept_log_prob(self) -> np.ndarray:
+        kept = [e.kept()[1] for e in self.ensembles]
+        n = min(k.shape[0] for k in kept)
+        return np.stack([k[k.shape[0] - n :] for k in kept])
+
+    def draws(self) -> np.ndarray:
+        """Post-burn-in draws in natural units, ``(n_ensembles, n_draws, n_walkers, ndim)``."""
+        z = self.kept_z()
+        return self.problem.parameters.from_unconstrained(z.reshape(-1, z.shape[-1])).reshape(z.shape)
+
+    def flat(self) -> np.ndarray:
+        """All post-burn-in draws as ``(n, ndim)`` natural units."""
+        d = self.draws()
+        return d.reshape(-1, d.shape[-1])
+
+
+# ---- parallel ensembles ------------------------------------------------------------------------------
+_WORKER: dict = {}
+
+
+def _init_worker(problem, progress_queue):
+    _WORKER["problem"] = problem
+    _WORKER["queue"] = progress_queue
+
+
+def _worker(k, p0, seed, options, path, resume):
+    q = _WORKER["queue"]
+    problem = _WORKER["problem"]
+    problem.n_evaluations = problem.n_failed = 0
+
+    def report(eid, n, nmax):
+        q.put((eid, n, nmax))
+
+    return run_ensemble(
+        problem,
+        p0,
+        options=options,
+        seed=seed,
+        backend_path=path,
+        ensemble_id=k,
+        resume=resume,
+        progress=report,
+    )
+
+
+def sample_posterior(
+    problem: CalibrationProblem,
+    center,
+    *,
+    cov=None,
+    options: SamplerOptions = SamplerOptions(),
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    progress: Callable[[int, int, int], None] | None = None,
+    rng=None,
+) -> PosteriorSample:
+    """Run ``options.n_ensembles`` independent ensembles, in parallel processes where cores allow.
+
+    Parameters
+    ----------
+    problem : CalibrationProblem
+    center : (ndim,) starting point in natural units (least-squares estimate + nuisance estimates).
+    cov : (n_material, n_material) Laplace covariance for the initial scatter (None: small fixed scatter).
+    options : SamplerOptions
+    checkpoint : directory for the HDF5 checkpoints, one file per ensemble (``ensemble_<k>.h5``; HDF5
+        files must not be written by two processes at once).
+    resume : continue the runs stored in ``checkpoint``.
+    progress : ``progress(ensemble_id, steps_done, max_steps)``, called in this process.
+    rng : seed or Generator (seeds of the ensembles and their initial walkers).
+
+    Notes
+    -----
+    Worker processes are forked (POSIX), so the problem and its forward callables need not be picklable;
+    without ``fork`` the ensembles run one after another.
+    """
+    rng = np.random.default_rng(rng)
+    ndim = problem.ndim
+    nw = options.walkers(ndim)
+    n_ens = options.n_ensembles
+    seeds = [int(s) for s in rng.integers(2**32 - 1, size=n_ens)]
+    p0s = [
+        initial_walkers(problem, center, nw, cov=cov, scatter=options.scatter, rng=rng)
+        for _ in range(n_ens)
+    ]
+    paths = [None] * n_ens
+    if checkpoint is not None:
+        Path(checkpoint).mkdir(parents=True, exist_ok=True)
+        paths = [Path(checkpoint) / f"ensemble_{k}.h5" for k in range(n_ens)]
+    n_proc = options.n_processes or min(n_ens, os.cpu_count() or 1)
+    n_proc = min(n_proc, n_ens)
+    t0 = time.perf_counter()
+    if n_proc > 1 and "fork" in mp.get_all_start_methods():
+        ctx = mp.get_context("fork")
+        q = ctx.Queue()
+        with ProcessPoolExecutor(n_proc, mp_context=ctx, initializer=_init_worker, initargs=(problem, q)) as ex:
+            futs = [
+                ex.submit(_worker, k, p0s[k], seeds[k], options, paths[k], resume)
+                for k in range(n_ens)
+            ]
+            while not all(f.done() for f in futs):
+                try:
+                    msg = q.get(timeout=0.2)
+                except _queue.Empty:
+                    continue
+                if progress is not None:
+                    progress(*msg)
+            results = [f.result() for f in futs]
+            while progress is not None and not q.empty():
+                progress(*q.get())
+    else:
+        results = []
+        for k in range(n_ens):
+            n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
+            r = run_ensemble(
+                problem,
+                p0s[k],
+                options=options,
+                seed=seeds[k],
+                backend_path=paths[k],
+                ensemble_id=k,
+                resume=resume,
+                progress=progress,
+            )
+            r.n_evaluations -= n_eval0
+            r.n_failed -= n_fail0
+            results.append(r)
+    return PosteriorSample(problem.names, results, problem, time.perf_counter() - t0, seeds)

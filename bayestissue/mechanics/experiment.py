@@ -1,0 +1,224 @@
+"""Experiments: a specimen, a loading protocol, the data times (and data) and the fixed tissue inputs.
+
+Experiment file format (TOML, with a CSV data file beside it)::
+
+    name = "T1"
+    description = "Creep test T1 (paper Section 3.2)"
+    synthetic = true                      # true for simulated replicas; omit or false for measured data
+
+    [specimen]
+    length_x_mm = 5.33                    # loading direction
+    length_y_mm = 2.43
+    length_z_mm = 3.9
+
+    [protocol]
+    kind = "creep"                        # creep | ramp | measured
+    stress_kpa = 10.6                     # creep: constant nominal stress
+    # ramp:     hold_stress_kpa, hold_s, rate_kpa_per_s
+    # measured: the load is the data file's force column (force_column, default "force_mN")
+
+    [simulation]
+    dt_s = 6.0                            # simulation step, independent of the data step
+
+    [data]
+    file = "T1.csv"                       # columns time_s, displacement_mm (optional), force_mN (optional)
+    # or, for a simulation-only experiment without a data file:
+    # duration_s = 1200.0
+    # step_s = 3.0
+
+    [tissue]                              # optional; defaults are the paper's (MODEL.md)
+    directions = [[0, 1, 0], [0.9369, 0.342, 0], [0.9369, -0.342, 0]]
+    phi_fibres = [0.2, 0.2, 0.2]
+    phi_matrix = 0.4
+    bulk_kpa = 1000.0
+    eps0 = [0, 0, 0]
+
+A data file's ``# noise_sd_mm: ...`` header line (written for synthetic replicas) is kept as ``noise_sd_mm``.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bayestissue._validation import ValidationError, check_increasing, check_positive
+from bayestissue.io.tables import read_table
+from bayestissue.mechanics.protocols import protocol_from_mapping
+from bayestissue.mechanics.tissue import PAPER_TISSUE, TissueConfig
+
+__all__ = ["Experiment", "load_experiment"]
+
+
+@dataclass(frozen=True, eq=False)
+class Experiment:
+    """A uniaxial experiment.
+
+    Parameters
+    ----------
+    name : str
+    specimen_mm : (3,) tuple of float
+        Specimen size (L_x, L_y, L_z) in mm, x the loading direction.
+    protocol : CreepProtocol | RampProtocol | MeasuredForceProtocol
+    time_s : (n_obs,) ndarray
+        Data times (s), strictly increasing, >= 0.
+    dt_s : float
+        Simulation step (s). The simulation grid is ``t_n = n dt_s`` up to the last data time; the displacement is
+        linearly interpolated to the data times.
+    displacement_mm, force_mN : (n_obs,) ndarray or None
+        Observed displacement of the loaded face and the applied force, if known.
+    tissue : TissueConfig
+        Fibre directions, volume fractions, bulk modulus, slack strains (default: the paper's).
+    noise_sd_mm : float or None
+        Measurement noise sd where known (synthetic replicas record it).
+    """
+
+    name: str
+    specimen_mm: tuple[float, float, float]
+    protocol: object
+    time_s: np.ndarray
+    dt_s: float
+    displacement_mm: np.ndarray | None = None
+    force_mN: np.ndarray | None = None
+    tissue: TissueConfig = PAPER_TISSUE
+    noise_sd_mm: float | None = None
+    synthetic: bool = False
+    description: str = ""
+    source: str | None = None
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        dims = tuple(
+            check_positive(f"specimen.length_{ax}_mm", v)
+            for ax, v in zip("xyz", self.specimen_mm, strict=True)
+        )
+        object.__setattr__(self, "specimen_mm", dims)
+        dt = check_positive("simulation.dt_s", self.dt_s)
+        object.__setattr__(self, "dt_s", dt)
+        t = check_increasing("time_s", self.time_s)
+        if t[0] < 0:
+            raise ValidationError("time_s", float(t[0]), "times >= 0 (t = 0 is the unloaded state)")
+        t.setflags(write=False)
+        object.__setattr__(self, "time_s", t)
+        for name in ("displacement_mm", "force_mN"):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            v = np.asarray(v, dtype=float)
+            if v.shape != t.shape:
+                raise ValidationError(name, f"{v.size} values", f"{t.size} values (one per data time)")
+            bad = np.flatnonzero(~np.isfinite(v))
+            if bad.size:
+                raise ValidationError(name, f"{v[bad[0]]} at row {bad[0]} (time {t[bad[0]]} s)", "finite values")
+            v.setflags(write=False)
+            object.__setattr__(self, name, v)
+        if self.noise_sd_mm is not None:
+            object.__setattr__(self, "noise_sd_mm", check_positive("noise_sd_mm", self.noise_sd_mm))
+        if not isinstance(self.tissue, TissueConfig):
+            raise ValidationError("tissue", type(self.tissue).__name__, "a TissueConfig")
+
+    @property
+    def area_mm2(self) -> float:
+        """Reference cross-section L_y L_z (mm^2)."""
+        return self.specimen_mm[1] * self.specimen_mm[2]
+
+    @property
+    def n_steps(self) -> int:
+        """Number of simulation steps: the grid ``n dt`` covers the last data time."""
+        return max(1, math.ceil(self.time_s[-1] / self.dt_s - 1e-9))
+
+    @property
+    def step_time_s(self) -> np.ndarray:
+        """(n_steps + 1,) simulation grid ``t_n = n dt``."""
+        return np.arange(self.n_steps + 1) * self.dt_s
+
+    def nominal_stress_kpa(self) -> np.ndarray:
+        """(n_steps + 1,) nominal stress P11 at the simulation steps (0 at t = 0)."""
+        return self.protocol.nominal_stress_kpa(self.step_time_s, self.area_mm2)
+
+    def interpolation(self) -> tuple[np.ndarray, np.ndarray]:
+        """Indices ``i`` and weights ``w`` with ``u(t_obs) = (1 - w) u[i] + w u[i + 1]`` on the step grid.
+
+        Linear interpolation between steps, except in the first interval: the load acts from the first step on, so
+        a data time ``0 < t < dt`` takes the state of step 1 (interpolating towards the unloaded state at t = 0
+        would invent a response to a load that was never applied in the model).
+        """
+        grid = self.step_time_s
+        i = np.clip(np.searchsorted(grid, self.time_s, side="right") - 1, 0, grid.size - 2)
+        w = (self.time_s - grid[i]) / self.dt_s
+        w = np.where((i == 0) & (self.time_s > 0), 1.0, w)
+        return i, w
+
+
+def _table(doc: dict, key: str, where: str) -> dict:
+    val = doc.get(key)
+    if not isinstance(val, dict):
+        raise ValidationError(f"[{key}]", "missing" if val is None else val, f"a [{key}] table", where)
+    return val
+
+
+def _get(table: dict, key: str, section: str, where: str):
+    if key not in table:
+        raise ValidationError(f"{section}.{key}", "missing", f"a value for {key!r}", where)
+    return table[key]
+
+
+def load_experiment(path: str | Path) -> Experiment:
+    """Read an experiment file (TOML) and its data file (CSV, path relative to the TOML file).
+
+    Raises
+    ------
+    FileNotFoundError if either file is missing; ValidationError (a ValueError) naming the field, the value and
+    what was expected for any bad or missing entry.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"experiment file {str(path)!r} does not exist")
+    try:
+        doc = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ValidationError(path.name, "invalid TOML", "a TOML experiment file", str(exc)) from None
+    where = f"in {path.name}"
+    spec = _table(doc, "specimen", where)
+    dims = tuple(_get(spec, f"length_{ax}_mm", "specimen", where) for ax in "xyz")
+    sim = _table(doc, "simulation", where)
+    dt = _get(sim, "dt_s", "simulation", where)
+    data = _table(doc, "data", where)
+    columns, meta = {}, {}
+    if "file" in data:
+        columns, meta = read_table(path.parent / data["file"], required=("time_s",))
+        time_s = columns["time_s"]
+    else:
+        duration = check_positive("data.duration_s", _get(data, "duration_s", "data", where))
+        step = check_positive("data.step_s", _get(data, "step_s", "data", where))
+        time_s = np.arange(0.0, duration + 0.5 * step, step)
+    protocol = protocol_from_mapping(_table(doc, "protocol", where), columns=columns)
+    tissue = PAPER_TISSUE
+    if "tissue" in doc:
+        t = doc["tissue"]
+        tissue = TissueConfig(
+            directions=t.get("directions", PAPER_TISSUE.directions),
+            phi_fibres=t.get("phi_fibres", PAPER_TISSUE.phi_fibres),
+            phi_matrix=t.get("phi_matrix", PAPER_TISSUE.phi_matrix),
+            bulk_kpa=t.get("bulk_kpa", PAPER_TISSUE.bulk_kpa),
+            eps0=t.get("eps0"),
+        )
+    noise = meta.get("noise_sd_mm")
+    return Experiment(
+        name=str(doc.get("name", path.stem)),
+        specimen_mm=dims,
+        protocol=protocol,
+        time_s=time_s,
+        dt_s=dt,
+        displacement_mm=columns.get("displacement_mm"),
+        force_mN=columns.get("force_mN"),
+        tissue=tissue,
+        noise_sd_mm=float(noise) if noise is not None else None,
+        synthetic=bool(doc.get("synthetic", False)),
+        description=str(doc.get("description", "")),
+        source=str(path),
+        meta=meta,
+    )

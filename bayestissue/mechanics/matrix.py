@@ -1,0 +1,137 @@
+r"""Mooney-Rivlin matrix and volumetric penalty: second Piola-Kirchhoff stress and consistent tangent.
+
+Stress (MODEL.md; paper eq. (4) with its first bracket corrected to the standard total-Lagrangian neo-Hookean form):
+
+.. math::
+
+    S_m = \phi_m \left[ \mu J^{-2/3} \left(I - \tfrac{I_1}{3} C^{-1}\right)
+          + \kappa J^{-4/3} \left(I_1 I - C - \tfrac{2}{3} I_2 C^{-1}\right) \right], \qquad
+    S_{vol} = K (J - 1) J C^{-1},
+
+i.e. :math:`S = 2\,\partial W / \partial C` of
+:math:`W = \phi_m [\tfrac{\mu}{2}(J^{-2/3} I_1 - 3) + \tfrac{\kappa}{2}(J^{-4/3} I_2 - 3)] + \tfrac{K}{2}(J-1)^2`.
+
+Tangent :math:`\partial S / \partial E = 2\,\partial S / \partial C` with
+:math:`\partial J^{-2/3}/\partial C = -\tfrac13 J^{-2/3} C^{-1}`,
+:math:`\partial C^{-1}_{ab}/\partial C_{cd} = -\tfrac12 (C^{-1}_{ac} C^{-1}_{bd} + C^{-1}_{ad} C^{-1}_{bc})`,
+:math:`\partial I_2/\partial C = I_1 I - C`:
+
+.. math::
+
+    \frac{\partial S_m}{\partial C} = \phi_m \mu J^{-2/3}\left[-\tfrac13 (I - \tfrac{I_1}{3}C^{-1}) \otimes C^{-1}
+      - \tfrac13 C^{-1} \otimes I - \tfrac{I_1}{3} \frac{\partial C^{-1}}{\partial C}\right]
+      + \phi_m \kappa J^{-4/3}\left[-\tfrac23 (I_1 I - C - \tfrac23 I_2 C^{-1}) \otimes C^{-1} + I \otimes I
+      - \mathbb{I} - \tfrac23 C^{-1} \otimes (I_1 I - C) - \tfrac23 I_2 \frac{\partial C^{-1}}{\partial C}\right],
+
+.. math::
+
+    \frac{\partial S_{vol}}{\partial C} = K\left[\tfrac{(2J - 1) J}{2} C^{-1} \otimes C^{-1}
+      + (J^2 - J) \frac{\partial C^{-1}}{\partial C}\right].
+
+In Voigt form the tangent column of a shear component counts both :math:`E_{cd}` and :math:`E_{dc}` (factor 2).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J, right_cauchy_green
+
+__all__ = ["matrix_stress_tangent", "matrix_stress", "matrix_energy"]
+
+_VI = VOIGT_I
+_VJ = VOIGT_J
+
+
+@njit(cache=True)
+def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
+    """Matrix + penalty stress ``S`` (6,) and, if ``want_tangent``, tangent ``D`` (6, 6) at Voigt strain ``e``.
+
+    ``D[i, j] = dS_i / de_j`` with ``e_j`` the independent Voigt components; ``C`` and ``Ci`` are (3, 3) scratch
+    arrays (no allocation in the hot loop). Returns J (<= 0: inadmissible state, ``S`` and ``D`` undefined).
+    """
+    det = right_cauchy_green(e, C, Ci)
+    if not (det > 0.0):
+        return -1.0
+    J = np.sqrt(det)
+    I1 = C[0, 0] + C[1, 1] + C[2, 2]
+    trC2 = 0.0
+    for a in range(3):
+        for b in range(3):
+            trC2 += C[a, b] * C[a, b]
+    I2 = 0.5 * (I1 * I1 - trC2)
+    jm23 = 1.0 / np.cbrt(det)  # J^(-2/3) = det(C)^(-1/3)
+    jm43 = jm23 * jm23
+    a_nh = phi_m * mu * jm23
+    a_mr = phi_m * kappa * jm43
+    pv = bulk * (J - 1.0) * J
+    for i in range(6):
+        a = _VI[i]
+        b = _VJ[i]
+        dab = 1.0 if a == b else 0.0
+        S[i] = (
+            a_nh * (dab - I1 / 3.0 * Ci[a, b])
+            + a_mr * (I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b])
+            + pv * Ci[a, b]
+        )
+    if not want_tangent:
+        return J
+    kv1 = bulk * (2.0 * J - 1.0) * J * 0.5
+    for i in range(6):
+        a = _VI[i]
+        b = _VJ[i]
+        dab = 1.0 if a == b else 0.0
+        snh = dab - I1 / 3.0 * Ci[a, b]
+        smr = I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b]
+        for j in range(i, 6):
+            c = _VI[j]
+            d = _VJ[j]
+            dcd = 1.0 if c == d else 0.0
+            dci = -0.5 * (Ci[a, c] * Ci[b, d] + Ci[a, d] * Ci[b, c])
+            sym = 0.5 * ((1.0 if a == c else 0.0) * (1.0 if b == d else 0.0)
+                         + (1.0 if a == d else 0.0) * (1.0 if b == c else 0.0))
+            t_nh = -snh * Ci[c, d] / 3.0 - Ci[a, b] * dcd / 3.0 - I1 / 3.0 * dci
+            t_mr = (
+                -2.0 / 3.0 * smr * Ci[c, d]
+                + dab * dcd
+                - sym
+                - 2.0 / 3.0 * Ci[a, b] * (I1 * dcd - C[c, d])
+                - 2.0 / 3.0 * I2 * dci
+            )
+            t_vol = kv1 * Ci[a, b] * Ci[c, d] + pv * dci
+            val = 2.0 * (a_nh * t_nh + a_mr * t_mr + t_vol)
+            D[i, j] = val * (1.0 if j < 3 else 2.0)
+            if j != i:
+                D[j, i] = val * (1.0 if i < 3 else 2.0)
+    return J
+
+
+@njit(cache=True)
+def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
+    """Strain energy W (kPa) of matrix + penalty at Voigt strain ``e`` (NaN if J <= 0); see the module docstring."""
+    det = right_cauchy_green(e, C, Ci)
+    if not (det > 0.0):
+        return np.nan
+    J = np.sqrt(det)
+    I1 = C[0, 0] + C[1, 1] + C[2, 2]
+    trC2 = 0.0
+    for a in range(3):
+        for b in range(3):
+            trC2 += C[a, b] * C[a, b]
+    I2 = 0.5 * (I1 * I1 - trC2)
+    jm23 = 1.0 / np.cbrt(det)
+    return (
+        0.5 * phi_m * (mu * (jm23 * I1 - 3.0) + kappa * (jm23 * jm23 * I2 - 3.0))
+        + 0.5 * bulk * (J - 1.0) ** 2
+    )
+
+
+def matrix_stress(e, mu, kappa, phi_m, bulk):
+    """Convenience wrapper: (S (6,), D (6, 6), J) at one Voigt strain (for checks and plots)."""
+    S = np.empty(6)
+    D = np.empty((6, 6))
+    J = matrix_stress_tangent(
+        np.asarray(e, dtype=float), mu, kappa, phi_m, bulk, S, D, True, np.empty((3, 3)), np.empty((3, 3))
+    )
+    return S, D, J

@@ -1,0 +1,285 @@
+r"""The reduced FE model of a uniaxial test, batched over parameter sets.
+
+A homogeneous block :math:`L_x \times L_y \times L_z` under a dead load along x with traction-free lateral faces
+deforms homogeneously, so one element with one quadrature point is exact (MODEL.md). With the rigid rotation fixed
+so that :math:`F e_1 \parallel e_1`, equilibrium at every time step reads
+
+.. math:: S(E) = \frac{P_{11}}{\sqrt{C_{11}}}\, e_1 \otimes e_1,
+
+six equations for the six components of the symmetric Green strain :math:`E` (F is *not* forced diagonal: fibre
+families that are not mirror-symmetric about x shear the block). They are solved by Newton's method with the
+consistent tangent of :mod:`~bayestissue.mechanics.matrix` and :mod:`~bayestissue.mechanics.fibres`, the Jacobian
+entry :math:`\partial R_{11}/\partial E_{11}` gaining :math:`P_{11} C_{11}^{-3/2}` from the dead load, safeguarded by
+backtracking: a step is accepted when :math:`\|R\|_2` decreases or, failing that, when the incremental potential
+:math:`\Pi = W(E) - P_{11}(\sqrt{C_{11}} - 1)` (whose gradient is :math:`R`; the fibre part is the piecewise quadratic
+of :func:`~bayestissue.mechanics.fibres.fibre_energy`) satisfies Armijo's condition; otherwise the step is halved,
+also whenever :math:`J \le 0`. The potential criterion matters when stiff fibres meet a soft matrix: there the
+residual norm is a poor merit function and Newton steps that lower the energy would be rejected. The observable is the
+x-displacement of the loaded face, :math:`u = (\sqrt{C_{11}} - 1) L_x`.
+
+A parameter set whose solve fails (no convergence in ``MAX_ITER`` iterations, :math:`J \le 0`, a singular tangent,
+NaN) is flagged: its row of the output is NaN and ``ok`` is False; the other rows are unaffected.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from bayestissue.mechanics.fibres import (
+    fibre_energy,
+    fibre_stress_tangent,
+    fibre_tension,
+    kelvin_history_update,
+    kelvin_step_constants,
+)
+from bayestissue.mechanics.matrix import matrix_energy, matrix_stress_tangent
+
+__all__ = ["solve_uniaxial_batch", "MAX_ITER", "MAX_HALVINGS", "RTOL", "STEP_TOL"]
+
+#: Newton iterations allowed per time step before the set is declared failed.
+MAX_ITER = 60
+#: Step halvings allowed per Newton iteration (backtracking line search).
+MAX_HALVINGS = 40
+#: Residual tolerance relative to max(|P11|, 1 kPa): ||R||_inf <= RTOL * max(|P11|, 1) kPa.
+RTOL = 1e-10
+#: A full Newton step smaller than this (max-norm of the strain increment) ends the iteration: with quadratic
+#: convergence the remaining error is O(STEP_TOL^2) ~ 1e-18, far below round-off of the strains (~1e-16).
+STEP_TOL = 1e-9
+
+
+@njit(cache=True)
+def _residual(e, load, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, R, tau, D, want_tangent, C, Ci):
+    """R = S(E) - P11/sqrt(C11) e1(x)e1 (and its Jacobian in D). Returns J (<= 0: inadmissible)."""
+    J = matrix_stress_tangent(e, mu, kappa, phi_m, bulk, R, D, want_tangent, C, Ci)
+    if not (J > 0.0):
+        return -1.0
+    fibre_stress_tangent(e, M, phi_f, ginf, eps0, c, q, R, D, tau, want_tangent)
+    c11 = 1.0 + 2.0 * e[0]
+    R[0] -= load / np.sqrt(c11)
+    if want_tangent:
+        D[0, 0] += load * c11**-1.5
+    return J
+
+
+@njit(cache=True)
+def _potential(e, load, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, C, Ci):
+    """Incremental potential of the step: W_matrix + W_fibres - P11 (sqrt(C11) - 1); its gradient is R."""
+    w = matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci)
+    return w + fibre_energy(e, M, phi_f, ginf, eps0, c, q) - load * (np.sqrt(1.0 + 2.0 * e[0]) - 1.0)
+
+
+@njit(cache=True)
+def _solve6(A, b, x):
+    """Solve the 6x6 system A x = b by Gaussian elimination with partial pivoting (A, b overwritten).
+
+    Returns False if A is numerically singular."""
+    n = 6
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > amax:
+                amax = abs(A[i, k])
+                p = i
+        if not (amax > 1e-300):
+            return False
+        if p != k:
+            for j in range(n):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            f = A[i, k] * inv
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+                b[i] -= f * b[k]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= A[i, j] * x[j]
+        x[i] = s / A[i, i]
+    return True
+
+
+@njit(cache=True)
+def solve_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, length_x, u_out, ok, strain, tension,
+                         full):
+    """Integrate the uniaxial test for every parameter set (row of ``params``).
+
+    Parameters
+    ----------
+    params : (n_sets, 2 + 3 n_f) ndarray
+        ``mu, kappa, ginf_k, gamma_k, beta_k`` in the paper's order.
+    M : (n_f, 6) ndarray
+        Voigt structure tensors of the fibre directions.
+    phi_f, eps0 : (n_f,) ndarray
+        Fibre volume fractions and slack strains.
+    phi_m, bulk : float
+        Matrix volume fraction and bulk modulus (kPa).
+    load : (n_steps + 1,) ndarray
+        Nominal stress P11 (kPa) at the simulation steps; ``load[0]`` is the unloaded initial state.
+    dt, length_x : float
+        Simulation step (s) and specimen length along x (mm).
+    u_out : (n_sets, n_steps + 1) ndarray, output
+        x-displacement of the loaded face (mm); NaN rows for failed sets.
+    ok : (n_sets,) bool ndarray, output
+    strain : (n_sets, n_steps + 1, 6), tension : (n_sets, n_steps + 1, n_f) ndarray, output if ``full``
+    """
+    n_sets = params.shape[0]
+    nf = M.shape[0]
+    n_t = load.shape[0]
+    R = np.empty(6)
+    D = np.empty((6, 6))
+    d = np.empty(6)
+    g = np.empty(6)
+    e = np.empty(6)
+    e_old = np.empty(6)
+    e_prev = np.empty(6)
+    e_prev2 = np.empty(6)
+    tau = np.empty(nf)
+    tau_old = np.empty(nf)
+    h = np.empty(nf)
+    ginf = np.empty(nf)
+    gamma = np.empty(nf)
+    beta = np.empty(nf)
+    ea = np.empty(nf)
+    eh = np.empty(nf)
+    c = np.empty(nf)
+    q = np.empty(nf)
+    C = np.empty((3, 3))
+    Ci = np.empty((3, 3))
+    for s in range(n_sets):
+        mu = params[s, 0]
+        kappa = params[s, 1]
+        for k in range(nf):
+            ginf[k] = params[s, 2 + 3 * k]
+            gamma[k] = params[s, 3 + 3 * k]
+            beta[k] = params[s, 4 + 3 * k]
+        kelvin_step_constants(gamma, beta, dt, ea, eh, c)
+        for k in range(nf):
+            tau_old[k] = max(0.0, -ginf[k] * eps0[k])  # eq. (8) at E = 0
+            h[k] = 0.0  # eq. (9)
+        for i in range(6):
+            e[i] = 0.0
+            e_prev[i] = 0.0
+            e_prev2[i] = 0.0
+        u_out[s, 0] = 0.0
+        if full:
+            for i in range(6):
+                strain[s, 0, i] = 0.0
+            for k in range(nf):
+                tension[s, 0, k] = tau_old[k]
+        good = True
+        for n in range(1, n_t):
+            P = load[n]
+            for k in range(nf):
+                q[k] = gamma[k] * (ea[k] * h[k] - eh[k] * tau_old[k])
+            if n >= 2:  # linear extrapolation of the last two states as the initial guess
+                for i in range(6):
+                    e[i] = 2.0 * e_prev[i] - e_prev2[i]
+            tol = RTOL * max(abs(P), 1.0)
+            alpha = 1.0
+            have_old = False
+            fallback = n < 2
+            rn_old = 0.0
+            pot_old = 0.0
+            slope = 0.0
+            n_iter = 0
+            n_half = 0
+            converged = False
+            while True:
+                J = _residual(e, P, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, R, tau, D, True, C, Ci)
+                rn2 = 0.0
+                rinf = 0.0
+                if J > 0.0:
+                    for i in range(6):
+                        rn2 += R[i] * R[i]
+                        rinf = max(rinf, abs(R[i]))
+                valid = J > 0.0 and np.isfinite(rn2)
+                reject = False
+                if have_old:
+                    if not valid:
+                        reject = True
+                    elif rn2 > (1.0 - 1e-4 * alpha) ** 2 * rn_old:
+                        # residual did not decrease: accept if the potential decreased enough (Armijo)
+                        pot = _potential(e, P, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, C, Ci)
+                        reject = not (pot <= pot_old + 1e-4 * alpha * slope)
+                if reject:
+                    n_half += 1  # backtrack along the Newton direction
+                    if n_half > MAX_HALVINGS:
+                        break
+                    alpha *= 0.5
+                    for i in range(6):
+                        e[i] = e_old[i] + alpha * d[i]
+                    continue
+                if not valid:
+                    if fallback:
+                        break
+                    fallback = True  # extrapolated guess inadmissible: restart from the last state
+                    for i in range(6):
+                        e[i] = e_prev[i]
+                    continue
+                if rinf <= tol:
+                    converged = True
+                    break
+                n_iter += 1
+                if n_iter > MAX_ITER:
+                    break
+                for i in range(6):
+                    R[i] = -R[i]
+                    g[i] = R[i] * (1.0 if i < 3 else 2.0)  # minus the gradient of the potential
+                if not _solve6(D, R, d):
+                    break
+                slope = 0.0
+                for i in range(6):
+                    slope -= g[i] * d[i]
+                if slope >= 0.0:  # not a descent direction (tangent not positive definite): steepest descent
+                    slope = 0.0
+                    for i in range(6):
+                        d[i] = g[i]
+                        slope -= g[i] * g[i]
+                pot_old = _potential(e, P, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, C, Ci)
+                dmax = 0.0
+                for i in range(6):
+                    e_old[i] = e[i]
+                    e[i] = e_old[i] + d[i]
+                    dmax = max(dmax, abs(d[i]))
+                rn_old = rn2
+                alpha = 1.0
+                n_half = 0
+                have_old = True
+                if dmax <= STEP_TOL:
+                    fibre_tension(e, M, ginf, eps0, c, q, tau)
+                    converged = True
+                    break
+            if not converged:
+                good = False
+                break
+            kelvin_history_update(tau, tau_old, h, ea, eh)
+            for k in range(nf):
+                tau_old[k] = tau[k]
+            for i in range(6):
+                e_prev2[i] = e_prev[i]
+                e_prev[i] = e[i]
+            u_out[s, n] = (np.sqrt(1.0 + 2.0 * e[0]) - 1.0) * length_x
+            if full:
+                for i in range(6):
+                    strain[s, n, i] = e[i]
+                for k in range(nf):
+                    tension[s, n, k] = tau[k]
+        ok[s] = good
+        if not good:
+            for n in range(n_t):
+                u_out[s, n] = np.nan
+            if full:
+                for n in range(n_t):
+                    for i in range(6):
+                        strain[s, n, i] = np.nan
+                    for k in range(nf):
+                        tension[s, n, k] = np.nan
