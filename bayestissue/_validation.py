@@ -47,9 +47,7 @@ def check_positive(field: str, value, *, allow_zero: bool = False) -> float:
     return x
 
 
-def check_interval(
-    field: str, value, low: float, high: float, *, closed: tuple[bool, bool] = (True, True)
-) -> float:
+def check_interval(field: str, value, low: float, high: float, *, closed: tuple[bool, bool] = (True, True)) -> float:
     """Return ``value`` as float; raise unless it lies in the interval between ``low`` and ``high``."""
     x = check_finite(field, value)
     lo_ok = x >= low if closed[0] else x > low
@@ -87,7 +85,5 @@ def check_increasing(field: str, values) -> np.ndarray:
     nz = np.flatnonzero(steps <= 0)
     if nz.size:
         i = nz[0]
-        raise ValidationError(
-            field, f"{a[i]} then {a[i + 1]} at rows {i}-{i + 1}", "strictly increasing values"
-        )
+        raise ValidationError(field, f"{a[i]} then {a[i + 1]} at rows {i}-{i + 1}", "strictly increasing values")
     return a

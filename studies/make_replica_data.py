@@ -85,9 +85,7 @@ def make_replica(name: str, *, seed: int, noise_sd: float, out: Path) -> Path:
     meta = {
         "synthetic": "yes -- simulated replica of the paper's test, NOT measured data",
         "generator": f"studies/make_replica_data.py (bayestissue {__version__})",
-        "generating_parameters": ", ".join(
-            f"{n}={v:g}" for n, v in zip(param_names(3), params, strict=True)
-        ),
+        "generating_parameters": ", ".join(f"{n}={v:g}" for n, v in zip(param_names(3), params, strict=True)),
         "generating_set": f"paper Table 1, {key} final",
         "seed": f"{seed} (stream {list(REPLICAS).index(name)})",
         "noise_sd_mm": f"{noise_sd:g}",
@@ -100,11 +98,7 @@ def make_replica(name: str, *, seed: int, noise_sd: float, out: Path) -> Path:
         meta=meta,
     )
     path = out / f"{name}.toml"
-    path.write_text(
-        TOML.format(
-            name=name, key=key, lx=dims[0], ly=dims[1], lz=dims[2], protocol=protocol_toml, dt=dt
-        )
-    )
+    path.write_text(TOML.format(name=name, key=key, lx=dims[0], ly=dims[1], lz=dims[2], protocol=protocol_toml, dt=dt))
     return path
 
 

@@ -134,9 +134,7 @@ def psis_leave_out(loglik_left_out: np.ndarray, *, r_eff: float = 1.0) -> dict[s
     check_positive("r_eff", r_eff)
     ll = np.asarray(loglik_left_out, dtype=float).ravel()
     if ll.size < 10 or not np.all(np.isfinite(ll)):
-        raise ValidationError(
-            "loglik_left_out", f"{ll.size} values", "at least 10 finite log-likelihoods"
-        )
+        raise ValidationError("loglik_left_out", f"{ll.size} values", "at least 10 finite log-likelihoods")
     import arviz as az
 
     lw, khat = az.psislw(-ll, reff=r_eff)

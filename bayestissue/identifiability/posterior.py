@@ -41,9 +41,7 @@ def _draws(name, x) -> np.ndarray:
     if a.ndim == 1:
         a = a[:, None]
     if a.ndim != 2 or a.shape[0] < 2 or not np.all(np.isfinite(a)):
-        raise ValidationError(
-            name, f"array of shape {np.shape(x)}", "finite draws of shape (n_draws, n_par)"
-        )
+        raise ValidationError(name, f"array of shape {np.shape(x)}", "finite draws of shape (n_draws, n_par)")
     return a
 
 
@@ -67,9 +65,7 @@ def contraction(
     else:
         raise ValidationError("prior", None, "prior draws or prior_var")
     if var_prior.shape != (p.shape[1],) or np.any(~(var_prior > 0)):
-        raise ValidationError(
-            "prior_var", var_prior.tolist(), f"{p.shape[1]} positive prior variances"
-        )
+        raise ValidationError("prior_var", var_prior.tolist(), f"{p.shape[1]} positive prior variances")
     return 1.0 - p.var(axis=0, ddof=1) / var_prior
 
 

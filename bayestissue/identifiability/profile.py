@@ -204,9 +204,7 @@ def _validate(theta, lower, upper, log):
         )
     log = _as_bool_mask(log, theta.size)
     if np.any(log & (lower <= 0)):
-        raise ValidationError(
-            "lower", lower.tolist(), "positive lower bounds for log-transformed parameters"
-        )
+        raise ValidationError("lower", lower.tolist(), "positive lower bounds for log-transformed parameters")
     return theta, lower, upper, log
 
 

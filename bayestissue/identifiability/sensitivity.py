@@ -92,9 +92,7 @@ def scaled_sensitivities(
         raise ValidationError("predict output", y.shape, f"shape ({2 * n}, n_obs)")
     if not np.all(np.isfinite(y)):
         bad = sorted({int(i) % n for i in np.flatnonzero(~np.all(np.isfinite(y), axis=1))})
-        raise ValidationError(
-            "predict output", f"non-finite for parameters {bad}", "finite predictions"
-        )
+        raise ValidationError("predict output", f"non-finite for parameters {bad}", "finite predictions")
     sd = np.broadcast_to(np.asarray(noise_sd, dtype=float), (y.shape[1],))
     if np.any(~np.isfinite(sd)) or np.any(sd <= 0):
         raise ValidationError("noise_sd", noise_sd, "positive finite noise standard deviations")
@@ -135,9 +133,7 @@ def collinearity_table(
     n = S.shape[1]
     max_size = n if max_size is None else int(max_size)
     if not 1 <= min_size <= max_size <= n:
-        raise ValidationError(
-            "min_size/max_size", (min_size, max_size), f"1 <= min_size <= max_size <= {n}"
-        )
+        raise ValidationError("min_size/max_size", (min_size, max_size), f"1 <= min_size <= max_size <= {n}")
     norms = np.linalg.norm(S, axis=0)
     Sn = np.divide(S, norms, out=np.zeros_like(S), where=norms > 0)
     G = Sn.T @ Sn

@@ -1,5 +1,5 @@
-"""Bayesian calibration: parameters and box priors, likelihoods, the calibration problem, least-squares warm
-start, emcee ensemble sampling, diagnostics and summaries.
+"""Bayesian calibration: parameters and box priors, likelihoods, the calibration problem,
+least-squares warm start, emcee ensemble sampling, diagnostics and summaries.
 
 The stages share one :class:`CalibrationProblem` (experiments with forward callables + a
 :class:`ParameterSet` + noise models); nothing here depends on the mechanics internals.

@@ -1,16 +1,19 @@
 """Convergence diagnostics for independent emcee ensembles.
 
-* Integrated autocorrelation time :math:`\\hat\\tau` per parameter and ensemble (emcee's estimator, Goodman &
-  Weare 2010) and the length criterion :math:`N \\ge 50\\,\\hat\\tau`.
-* Acceptance fraction per walker; a walker is *stuck* when its acceptance is below ``max(floor, rel * median)``.
-* Rank-normalised split :math:`\\hat R` (Vehtari et al. 2021, doi:10.1214/20-BA1221) with one chain per
-  *ensemble*: walkers of one ensemble interact, so treating them as independent chains understates
-  :math:`\\hat R`; each ensemble's post-burn-in draws are flattened (step-major) into one chain.
-* Bulk and tail ESS (Vehtari et al. 2021) with every walker as a chain: the autocorrelation is estimated along
-  each walker's own trajectory.
+* Integrated autocorrelation time :math:`\\hat\\tau` per parameter and ensemble (emcee's estimator,
+  Goodman & Weare 2010) and the length criterion :math:`N \\ge 50\\,\\hat\\tau`.
+* Acceptance fraction per walker; a walker is *stuck* when its acceptance is below ``max(floor, rel
+  * median)``.
+* Rank-normalised split :math:`\\hat R` (Vehtari et al. 2021, doi:10.1214/20-BA1221) with one chain
+  per *ensemble*: walkers of one ensemble interact, so treating them as independent chains
+  understates :math:`\\hat R`; each ensemble's post-burn-in draws are flattened (step-major) into
+  one chain.
+* Bulk and tail ESS (Vehtari et al. 2021) with every walker as a chain: the autocorrelation is
+  estimated along each walker's own trajectory.
 
-Verdict (:func:`assess_convergence`): :math:`\\hat R < 1.01`, bulk and tail ESS :math:`\\ge 400` for every
-sampled parameter, and every ensemble at least :math:`50\\hat\\tau` long with a stable :math:`\\hat\\tau`.
+Verdict (:func:`assess_convergence`): :math:`\\hat R < 1.01`, bulk and tail ESS :math:`\\ge 400` for
+every sampled parameter, and every ensemble at least :math:`50\\hat\\tau` long with a stable
+:math:`\\hat\\tau`.
 """
 
 from __future__ import annotations
@@ -79,7 +82,8 @@ def ess_walkers(draws, *, method: str = "bulk") -> np.ndarray:
 
 
 def stuck_walkers(acceptance, *, rel: float = 0.3, floor: float = 0.02) -> np.ndarray:
-    """Boolean flags for walkers whose acceptance is below ``max(floor, rel * median acceptance)``."""
+    """Boolean flags for walkers whose acceptance is below ``max(floor, rel * median
+    acceptance)``."""
     acc = np.asarray(acceptance, dtype=float)
     return acc < max(floor, rel * float(np.median(acc)))
 
@@ -115,9 +119,9 @@ class ConvergenceReport:
     def verdict(self) -> str:
         """Plain-language verdict, one line per failed criterion."""
         lines = []
-        bad_r = [n for n, r in zip(self.names, self.rhat) if not r < self.rhat_max]
-        bad_b = [n for n, e in zip(self.names, self.ess_bulk) if not e >= self.ess_min]
-        bad_t = [n for n, e in zip(self.names, self.ess_tail) if not e >= self.ess_min]
+        bad_r = [n for n, r in zip(self.names, self.rhat, strict=False) if not r < self.rhat_max]
+        bad_b = [n for n, e in zip(self.names, self.ess_bulk, strict=False) if not e >= self.ess_min]
+        bad_t = [n for n, e in zip(self.names, self.ess_tail, strict=False) if not e >= self.ess_min]
         if bad_r:
             lines.append(f"R-hat >= {self.rhat_max} for {bad_r} (max {np.max(self.rhat):.3f})")
         if bad_b:

@@ -1,22 +1,26 @@
-"""Noise models for the displacement residuals :math:`r_t = u_t^{\\text{model}}(\\theta) - u_t^{\\text{obs}}`.
+"""Noise models for the displacement residuals :math:`r_t = u_t^{\\text{model}}(\\theta) -
+u_t^{\\text{obs}}`.
 
-One noise model per experiment; the calibration problem (:mod:`bayestissue.inference.problem`) sums the
-experiments' log-likelihoods, so several experiments share the material parameters and each keeps its own
-nuisance parameters (noise sd, AR(1) coefficient), named ``sigma_<experiment>`` and ``rho_<experiment>``.
+One noise model per experiment; the calibration problem (:mod:`bayestissue.inference.problem`) sums
+the experiments' log-likelihoods, so several experiments share the material parameters and each
+keeps its own nuisance parameters (noise sd, AR(1) coefficient), named ``sigma_<experiment>`` and
+``rho_<experiment>``.
 
 Models (registered in :data:`NOISE_MODELS`):
 
-* ``gaussian``: independent :math:`r_t \\sim N(0, \\sigma^2)`; :math:`\\sigma` known (``sd=...``) or sampled.
-* ``ar1``: stationary AR(1) residuals, :math:`r_t = \\rho r_{t-1} + e_t`,
-  :math:`e_t \\sim N(0, \\sigma^2 (1 - \\rho^2))`, marginal sd :math:`\\sigma`. Dense creep curves have
-  correlated residuals (model error varies slowly); treating them as independent makes posteriors too
-  narrow by roughly :math:`\\sqrt{(1 + \\rho)/(1 - \\rho)}`.
-* ``student_t``: independent :math:`r_t / s \\sim t_\\nu` (robust to outliers; :math:`\\nu` fixed, default 4).
+* ``gaussian``: independent :math:`r_t \\sim N(0, \\sigma^2)`; :math:`\\sigma` known (``sd=...``) or
+  sampled.
+* ``ar1``: stationary AR(1) residuals, :math:`r_t = \\rho r_{t-1} + e_t`, :math:`e_t \\sim N(0,
+  \\sigma^2 (1 - \\rho^2))`, marginal sd :math:`\\sigma`. Dense creep curves have correlated
+  residuals (model error varies slowly); treating them as independent makes posteriors too narrow by
+  roughly :math:`\\sqrt{(1 + \\rho)/(1 - \\rho)}`.
+* ``student_t``: independent :math:`r_t / s \\sim t_\\nu` (robust to outliers; :math:`\\nu` fixed,
+  default 4).
 
-Priors of the nuisance parameters (weakly informative, stated here once): :math:`\\sigma` (or :math:`s`)
-log-uniform on ``sd_bounds``, by default :math:`[10^{-5} R, R]` with :math:`R` the peak-to-peak range of the
-observed displacement (a Jeffreys-type scale prior in a box spanning five decades below the data's own
-scale); :math:`\\rho` uniform on ``rho_bounds`` = (-0.99, 0.99).
+Priors of the nuisance parameters (weakly informative, stated here once): :math:`\\sigma` (or
+:math:`s`) log-uniform on ``sd_bounds``, by default :math:`[10^{-5} R, R]` with :math:`R` the
+peak-to-peak range of the observed displacement (a Jeffreys-type scale prior in a box spanning five
+decades below the data's own scale); :math:`\\rho` uniform on ``rho_bounds`` = (-0.99, 0.99).
 """
 
 from __future__ import annotations
@@ -42,7 +46,8 @@ def _tag(experiment: str) -> str:
 
 @dataclass(frozen=True)
 class NoiseModel:
-    """Base class. ``sd`` known (float, mm) or ``None`` to sample it with a log-uniform prior on ``sd_bounds``."""
+    """Base class. ``sd`` known (float, mm) or ``None`` to sample it with a log-uniform prior on
+    ``sd_bounds``."""
 
     sd: float | None = None
     sd_bounds: tuple[float, float] | None = None
@@ -61,7 +66,8 @@ class NoiseModel:
         return ()
 
     def nuisance_specs(self, experiment: str, observed) -> tuple[ParameterSpec, ...]:
-        """The sampled nuisance parameters of this experiment (empty for a known sd and no extras)."""
+        """The sampled nuisance parameters of this experiment (empty for a known sd and no
+        extras)."""
         tag = _tag(experiment)
         specs = []
         if self.sd is None:
@@ -84,7 +90,8 @@ class NoiseModel:
         return nuisance[:, :1]
 
     def loglik_pointwise(self, resid: np.ndarray, nuisance: np.ndarray) -> np.ndarray:
-        """Log-likelihood of each observation, ``(n_sets, n_obs)``; ``resid`` is ``(n_sets, n_obs)``."""
+        """Log-likelihood of each observation, ``(n_sets, n_obs)``; ``resid`` is ``(n_sets,
+        n_obs)``."""
         raise NotImplementedError  # pragma: no cover
 
     def simulate(self, n_obs: int, nuisance: np.ndarray, *, rng=None) -> np.ndarray:
@@ -110,7 +117,8 @@ class GaussianNoise(NoiseModel):
 
 @dataclass(frozen=True)
 class AR1Noise(NoiseModel):
-    """Stationary AR(1) residuals with marginal sd :math:`\\sigma` and lag-one correlation :math:`\\rho`.
+    """Stationary AR(1) residuals with marginal sd :math:`\\sigma` and lag-one correlation
+    :math:`\\rho`.
 
     The exact likelihood factorises into conditionals (used as the pointwise terms):
 
@@ -168,12 +176,14 @@ class AR1Noise(NoiseModel):
 
 @dataclass(frozen=True)
 class StudentTNoise(NoiseModel):
-    """Independent Student-t residuals with scale :math:`s` (the ``sd`` slot) and fixed :math:`\\nu`.
+    """Independent Student-t residuals with scale :math:`s` (the ``sd`` slot) and fixed
+    :math:`\\nu`.
 
     .. math::
 
         \\log p(r_t) = \\log\\Gamma(\\tfrac{\\nu+1}{2}) - \\log\\Gamma(\\tfrac{\\nu}{2})
-        - \\tfrac12\\log(\\nu\\pi s^2) - \\tfrac{\\nu+1}{2}\\log\\left(1 + \\frac{r_t^2}{\\nu s^2}\\right)
+        - \\tfrac12\\log(\\nu\\pi s^2) - \\tfrac{\\nu+1}{2}\\log\\left(1 + \\frac{r_t^2}{\\nu
+          s^2}\\right)
     """
 
     nu: float = 4.0

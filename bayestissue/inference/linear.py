@@ -1,11 +1,12 @@
 """A linear-Gaussian stand-in for the forward model, with a closed-form posterior.
 
-Used to test the whole inference path (priors, transforms, likelihood, least squares, sampler, diagnostics,
-outputs) against exact answers, independently of the mechanics. The model is
+Used to test the whole inference path (priors, transforms, likelihood, least squares, sampler,
+diagnostics, outputs) against exact answers, independently of the mechanics. The model is
 
 .. math:: y = A x + \\varepsilon, \\qquad \\varepsilon \\sim N(0, \\sigma^2 I),
 
-with uniform priors on a box much wider than the likelihood. Inside such a box the posterior is Gaussian,
+with uniform priors on a box much wider than the likelihood. Inside such a box the posterior is
+Gaussian,
 
 .. math::
 
@@ -29,7 +30,8 @@ __all__ = ["LinearForward", "linear_gaussian_problem", "linear_gaussian_posterio
 
 @dataclass(frozen=True)
 class LinearForward:
-    """Picklable forward model ``params @ design.T``; rows with ``params[:, 0] > fail_above`` give NaN."""
+    """Picklable forward model ``params @ design.T``; rows with ``params[:, 0] > fail_above`` give
+    NaN."""
 
     design: np.ndarray
     fail_above: float = np.inf
@@ -72,20 +74,14 @@ def linear_gaussian_problem(
     rng = np.random.default_rng(rng)
     truth = rng.normal(0.0, 1.0, n_params)
     t = np.linspace(0.0, 1.0, n_obs)
-    specs = tuple(
-        ParameterSpec(f"x{i}", "1", -box, box, prior="uniform", value=0.0) for i in range(n_params)
-    )
+    specs = tuple(ParameterSpec(f"x{i}", "1", -box, box, prior="uniform", value=0.0) for i in range(n_params))
     material = ParameterSet(specs, {"model": "linear-Gaussian stand-in"})
     terms = []
     for k in range(n_experiments):
-        design = np.column_stack(
-            [np.ones(n_obs)] + [np.cos((i + 1) * np.pi * t + k) for i in range(n_params - 1)]
-        )
+        design = np.column_stack([np.ones(n_obs)] + [np.cos((i + 1) * np.pi * t + k) for i in range(n_params - 1)])
         fwd = LinearForward(design, fail_above)
         y = design @ truth + sd * rng.standard_normal(n_obs)
-        terms.append(
-            ExperimentTerm(f"E{k + 1}", t, y, fwd, noise or GaussianNoise(sd=sd), {"synthetic": True})
-        )
+        terms.append(ExperimentTerm(f"E{k + 1}", t, y, fwd, noise or GaussianNoise(sd=sd), {"synthetic": True}))
     return CalibrationProblem(terms, material), truth
 
 

@@ -1,25 +1,30 @@
-"""Parameter specifications, the box, and the map to an unconstrained sampling space with its log-Jacobian.
+"""Parameter specifications, the box, and the map to an unconstrained sampling space with its
+log-Jacobian.
 
-Every sampled parameter :math:`x \\in [a, b]` is mapped to :math:`z \\in \\mathbb{R}` through the box scaled to
-:math:`[0, 1]` (linearly, or in :math:`\\log x` for ``scale="log"``) followed by the logit:
+Every sampled parameter :math:`x \\in [a, b]` is mapped to :math:`z \\in \\mathbb{R}` through the
+box scaled to :math:`[0, 1]` (linearly, or in :math:`\\log x` for ``scale="log"``) followed by the
+logit:
 
 .. math::
 
-    u = \\frac{g(x) - g(a)}{g(b) - g(a)}, \\qquad z = \\operatorname{logit} u = \\log\\frac{u}{1 - u},
+    u = \\frac{g(x) - g(a)}{g(b) - g(a)}, \\qquad z = \\operatorname{logit} u = \\log\\frac{u}{1 -
+    u},
     \\qquad g(x) = x \\text{ or } \\log x .
 
-The sampler works in :math:`z`, so the target density there carries the log-Jacobian of the inverse map
+The sampler works in :math:`z`, so the target density there carries the log-Jacobian of the inverse
+map
 
 .. math::
 
     \\log\\left|\\frac{dx}{dz}\\right| = \\log \\sigma(z) + \\log \\sigma(-z) + \\log(g(b) - g(a))
     + [\\text{scale} = \\log]\\, \\log x,
 
-with :math:`\\sigma` the logistic function. Forgetting it ("the classic Jacobian mistake") samples the wrong
-prior; ``tests/inference/test_parameters.py`` catches it with a KS test on draws from the sampler's own path.
+with :math:`\\sigma` the logistic function. Forgetting it ("the classic Jacobian mistake") samples
+the wrong prior; ``tests/inference/test_parameters.py`` catches it with a KS test on draws from the
+sampler's own path.
 
-The scaling is also the paper's (Section 2.7.1): the least-squares warm start scales each parameter by its
-initial guess, :math:`s_i = \\alpha_i^0`.
+The scaling is also the paper's (Section 2.7.1): the least-squares warm start scales each parameter
+by its initial guess, :math:`s_i = \\alpha_i^0`.
 """
 
 from __future__ import annotations
@@ -36,7 +41,8 @@ from bayestissue.inference.priors import PRIORS, BoxPrior, make_prior
 
 __all__ = ["ParameterSpec", "ParameterSet", "SCALES", "paper_parameter_set"]
 
-#: Scalings of the box before the logit: ``linear`` (g(x) = x) or ``log`` (g(x) = log x, needs lower > 0).
+#: Scalings of the box before the logit: ``linear`` (g(x) = x) or ``log`` (g(x) = log x, needs lower
+# > 0).
 SCALES = ("linear", "log")
 
 
@@ -55,7 +61,8 @@ class ParameterSpec:
     prior : {"uniform", "loguniform"}
         Density on the box (see :mod:`bayestissue.inference.priors`).
     scale : {"linear", "log"} or None
-        Scaling of the box before the logit; ``None`` picks ``log`` for log-uniform priors, else ``linear``.
+        Scaling of the box before the logit; ``None`` picks ``log`` for log-uniform priors, else
+        ``linear``.
     value : float or None
         Initial guess (sampled) or the held value (fixed); must lie in the box.
     fixed : bool
@@ -77,27 +84,21 @@ class ParameterSpec:
         lo = check_finite(f"{self.name} lower bound", self.lower)
         hi = check_finite(f"{self.name} upper bound", self.upper)
         if not lo < hi:
-            raise ValidationError(
-                f"{self.name} bounds", [lo, hi], "lower < upper", "the bounds look inverted"
-            )
+            raise ValidationError(f"{self.name} bounds", [lo, hi], "lower < upper", "the bounds look inverted")
         if self.prior not in PRIORS:
             raise ValidationError(f"{self.name} prior", self.prior, f"one of {sorted(PRIORS)}")
         scale = self.scale or ("log" if self.prior == "loguniform" else "linear")
         if scale not in SCALES:
             raise ValidationError(f"{self.name} scale", self.scale, f"one of {list(SCALES)}")
         if (scale == "log" or self.prior == "loguniform") and lo <= 0:
-            raise ValidationError(
-                f"{self.name} lower bound", lo, "a number > 0 for a log-uniform prior or log scale"
-            )
+            raise ValidationError(f"{self.name} lower bound", lo, "a number > 0 for a log-uniform prior or log scale")
         object.__setattr__(self, "scale", scale)
         object.__setattr__(self, "lower", lo)
         object.__setattr__(self, "upper", hi)
         if self.value is not None:
             v = check_finite(f"{self.name} value", self.value)
             if not lo <= v <= hi:
-                raise ValidationError(
-                    f"{self.name} initial/fixed value", v, f"a value inside the box [{lo}, {hi}]"
-                )
+                raise ValidationError(f"{self.name} initial/fixed value", v, f"a value inside the box [{lo}, {hi}]")
             object.__setattr__(self, "value", v)
         elif self.fixed:
             raise ValidationError(f"{self.name} value", None, "a value for a fixed parameter")
@@ -112,10 +113,10 @@ class ParameterSpec:
 class ParameterSet:
     """An ordered collection of :class:`ParameterSpec` with the transforms used by the sampler.
 
-    ``theta`` always means the *sampled* parameters in their natural units, shape ``(n_sets, n_sampled)``
-    (or ``(n_sampled,)``); :meth:`expand` inserts the fixed values to give the full vector in the order of
-    :attr:`specs`. ``fixed_inputs`` records inputs that are not parameters (volume fractions, fibre
-    directions, K, eps0 ...) for the provenance of the results.
+    ``theta`` always means the *sampled* parameters in their natural units, shape ``(n_sets,
+    n_sampled)`` (or ``(n_sampled,)``); :meth:`expand` inserts the fixed values to give the full
+    vector in the order of :attr:`specs`. ``fixed_inputs`` records inputs that are not parameters
+    (volume fractions, fibre directions, K, eps0 ...) for the provenance of the results.
     """
 
     specs: tuple[ParameterSpec, ...]
@@ -132,7 +133,8 @@ class ParameterSet:
         object.__setattr__(self, "specs", specs)
         object.__setattr__(self, "fixed_inputs", dict(self.fixed_inputs))
 
-    # ---- bookkeeping -------------------------------------------------------------------------------
+    # ---- bookkeeping
+    # -------------------------------------------------------------------------------
     @property
     def names(self) -> tuple[str, ...]:
         """All parameter names, sampled and fixed, in order."""
@@ -166,10 +168,11 @@ class ParameterSet:
 
     @property
     def initial(self) -> np.ndarray:
-        """Initial guess of the sampled parameters (box centre in the scaled space where none is given)."""
+        """Initial guess of the sampled parameters (box centre in the scaled space where none is
+        given)."""
         u_mid = np.full(self.n_sampled, 0.5)
         mid = self._from_unit(u_mid)
-        return np.array([s.value if s.value is not None else m for s, m in zip(self.sampled, mid)])
+        return np.array([s.value if s.value is not None else m for s, m in zip(self.sampled, mid, strict=False)])
 
     def index(self, name: str) -> int:
         """Position of ``name`` among the sampled parameters."""
@@ -188,7 +191,8 @@ class ParameterSet:
         initial: Mapping[str, float] | None = None,
         fixed_inputs: Mapping | None = None,
     ) -> ParameterSet:
-        """Return a copy with some parameters fixed, freed, re-bounded, re-priored or re-initialised.
+        """Return a copy with some parameters fixed, freed, re-bounded, re-priored or
+        re-initialised.
 
         Parameters
         ----------
@@ -202,7 +206,8 @@ class ParameterSet:
         Raises
         ------
         ValidationError
-            For unknown names, a name both fixed and sampled, inverted bounds or a value outside the box.
+            For unknown names, a name both fixed and sampled, inverted bounds or a value outside the
+            box.
         """
         known = set(self.names)
         fixed_map = dict(fixed) if isinstance(fixed, Mapping) else {n: None for n in (fixed or ())}
@@ -216,14 +221,10 @@ class ParameterSet:
         ):
             unknown = sorted(set(names) - known)
             if unknown:
-                raise ValidationError(
-                    f"{label} parameter names", unknown, f"names among {list(self.names)}"
-                )
+                raise ValidationError(f"{label} parameter names", unknown, f"names among {list(self.names)}")
         both = sorted(set(fixed_map) & set(sampled))
         if both:
-            raise ValidationError(
-                "parameters", both, "each parameter either fixed or sampled, not both"
-            )
+            raise ValidationError("parameters", both, "each parameter either fixed or sampled, not both")
         new = []
         for s in self.specs:
             kw = {}
@@ -249,17 +250,17 @@ class ParameterSet:
         inputs.update(fixed_inputs or {})
         return ParameterSet(tuple(new), inputs)
 
-    # ---- vectors -----------------------------------------------------------------------------------
+    # ---- vectors
+    # -----------------------------------------------------------------------------------
     def _check_theta(self, theta) -> np.ndarray:
         theta = np.asarray(theta, dtype=float)
         if theta.shape[-1:] != (self.n_sampled,) or theta.ndim > 2:
-            raise ValidationError(
-                "theta", f"array of shape {theta.shape}", f"shape (n_sets, {self.n_sampled})"
-            )
+            raise ValidationError("theta", f"array of shape {theta.shape}", f"shape (n_sets, {self.n_sampled})")
         return theta
 
     def expand(self, theta) -> np.ndarray:
-        """Insert the fixed values: ``(..., n_sampled) -> (..., n_total)`` in the order of :attr:`specs`."""
+        """Insert the fixed values: ``(..., n_sampled) -> (..., n_total)`` in the order of
+        :attr:`specs`."""
         theta = self._check_theta(theta)
         out = np.empty(theta.shape[:-1] + (len(self.specs),))
         j = 0
@@ -300,7 +301,8 @@ class ParameterSet:
         return self._from_unit(self._check_theta(u))
 
     def to_unconstrained(self, theta) -> np.ndarray:
-        """:math:`z = \\operatorname{logit} u(x)`; points on the bounds map to :math:`\\pm\\infty`."""
+        """:math:`z = \\operatorname{logit} u(x)`; points on the bounds map to
+        :math:`\\pm\\infty`."""
         u = self.to_unit(theta)
         with np.errstate(divide="ignore"):
             return logit(u)
@@ -336,7 +338,8 @@ class ParameterSet:
         return np.column_stack([s.prior_dist.sample(n, rng=rng) for s in self.sampled])
 
     def describe(self) -> list[dict]:
-        """One dict per parameter (name, unit, bounds, prior, scale, value, fixed) for provenance."""
+        """One dict per parameter (name, unit, bounds, prior, scale, value, fixed) for
+        provenance."""
         return [
             {
                 "name": s.name,
@@ -360,15 +363,16 @@ def paper_parameter_set(
     Parameters
     ----------
     n_fibres : number of fibre systems (3 in the paper: 2 + 3 n_f parameters).
-    prior : ``"default"`` (log-uniform for the positive scale parameters mu, kappa, ginf_k, beta_k and uniform
-        for gamma_k) or ``"uniform"`` (uniform on the box for all: the literal reading of the paper's
-        constraints).
+    prior : ``"default"`` (log-uniform for the positive scale parameters mu, kappa, ginf_k, beta_k
+    and uniform
+        for gamma_k) or ``"uniform"`` (uniform on the box for all: the literal reading of the
+        paper's constraints).
     fixed_inputs : recorded non-parameter inputs (volume fractions, directions, K, eps0).
 
     References
     ----------
-    Paper Section 3.2 and Table 1; bounds and initial guess from ``bayestissue.mechanics.PAPER_BOUNDS`` and
-    ``PAPER_PARAMETERS["initial"]``.
+    Paper Section 3.2 and Table 1; bounds and initial guess from
+    ``bayestissue.mechanics.PAPER_BOUNDS`` and ``PAPER_PARAMETERS["initial"]``.
     """
     from bayestissue.mechanics import PAPER_BOUNDS, PAPER_PARAMETERS, PARAM_UNITS, param_names
 

@@ -1,11 +1,13 @@
 """Box priors for the calibration parameters: uniform and log-uniform on ``[lower, upper]``.
 
-The paper (Section 2.7, eq. 10-12) constrains the parameters to a box :math:`\\alpha_i^{\\min} < \\alpha_i <
-\\alpha_i^{\\max}` (Table 1). A box is all it says, so we offer the two natural densities on it:
+The paper (Section 2.7, eq. 10-12) constrains the parameters to a box :math:`\\alpha_i^{\\min} <
+\\alpha_i < \\alpha_i^{\\max}` (Table 1). A box is all it says, so we offer the two natural
+densities on it:
 
 * ``uniform``: the literal reading, :math:`p(x) = 1/(b - a)`;
-* ``loguniform``: uniform in :math:`\\log x`, :math:`p(x) = 1 / (x \\log(b/a))`, the scale-invariant default for
-  positive scale parameters (moduli and rates, which the box spans over several decades).
+* ``loguniform``: uniform in :math:`\\log x`, :math:`p(x) = 1 / (x \\log(b/a))`, the scale-invariant
+  default for positive scale parameters (moduli and rates, which the box spans over several
+  decades).
 
 Each prior is a small frozen dataclass with ``logpdf``, ``cdf`` and ``ppf``, registered by name in
 :data:`PRIORS` (the paper's parameters use ``PRIORS[spec.prior](lower, upper)``).
@@ -35,7 +37,10 @@ class BoxPrior:
         hi = check_finite("prior upper bound", self.upper)
         if not lo < hi:
             raise ValidationError(
-                "prior bounds", (lo, hi), "lower < upper", "swap the two bounds if they are inverted"
+                "prior bounds",
+                (lo, hi),
+                "lower < upper",
+                "swap the two bounds if they are inverted",
             )
 
     def logpdf(self, x) -> np.ndarray:  # pragma: no cover - abstract
@@ -106,7 +111,8 @@ class LogUniformPrior(BoxPrior):
         return self.lower * np.exp(q * math.log(self.upper / self.lower))
 
 
-#: Registered box priors, by the name used in :class:`~bayestissue.inference.parameters.ParameterSpec`.
+#: Registered box priors, by the name used in
+# :class:`~bayestissue.inference.parameters.ParameterSpec`.
 PRIORS: dict[str, type[BoxPrior]] = {"uniform": UniformPrior, "loguniform": LogUniformPrior}
 
 

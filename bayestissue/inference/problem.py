@@ -1,25 +1,27 @@
 """The calibration problem: experiments + parameter specification + noise models -> log-posterior.
 
-The problem object is the one thing the stages share (warm start, sampler, identifiability): it knows nothing
-about mechanics. Each experiment brings a *forward* callable
+The problem object is the one thing the stages share (warm start, sampler, identifiability): it
+knows nothing about mechanics. Each experiment brings a *forward* callable
 
     ``forward(params) -> predictions``,  ``params`` ``(n_sets, n_material)`` -> ``(n_sets, n_obs)``,
 
-with a NaN row for a parameter set whose solve failed (``functools.partial(mechanics.simulate, experiment)``
-is one). ``n_material`` counts all material parameters, fixed ones included, in the order of the material
-:class:`~bayestissue.inference.parameters.ParameterSet`.
+with a NaN row for a parameter set whose solve failed (``functools.partial(mechanics.simulate,
+experiment)`` is one). ``n_material`` counts all material parameters, fixed ones included, in the
+order of the material :class:`~bayestissue.inference.parameters.ParameterSet`.
 
-The sampled vector ``theta`` is the sampled material parameters followed by each experiment's sampled nuisance
-parameters (``sigma_<name>``, ``rho_<name>``). The posterior is
+The sampled vector ``theta`` is the sampled material parameters followed by each experiment's
+sampled nuisance parameters (``sigma_<name>``, ``rho_<name>``). The posterior is
 
 .. math::
 
-    \\log p(\\theta \\mid y) = \\sum_{e} \\sum_t \\log p(y_{e,t} \\mid u_{e,t}(\\theta_m), \\theta_{n,e})
+    \\log p(\\theta \\mid y) = \\sum_{e} \\sum_t \\log p(y_{e,t} \\mid u_{e,t}(\\theta_m),
+    \\theta_{n,e})
     + \\sum_i \\log p_i(\\theta_i) + \\text{const},
 
-with box priors (:mod:`bayestissue.inference.priors`); the sampler targets it in the unconstrained space
-:math:`z` with the log-Jacobian added (:meth:`CalibrationProblem.log_posterior_unconstrained`). A failed
-forward solve gives :math:`-\\infty` and is counted in :attr:`CalibrationProblem.n_failed`.
+with box priors (:mod:`bayestissue.inference.priors`); the sampler targets it in the unconstrained
+space :math:`z` with the log-Jacobian added
+(:meth:`CalibrationProblem.log_posterior_unconstrained`). A failed forward solve gives
+:math:`-\\infty` and is counted in :attr:`CalibrationProblem.n_failed`.
 """
 
 from __future__ import annotations
@@ -105,7 +107,8 @@ class CalibrationProblem:
     parameters : ParameterSet
         Material parameters followed by the experiments' nuisance parameters.
     n_evaluations, n_failed : int
-        Parameter sets evaluated by the forward models and how many of them failed (NaN predictions).
+        Parameter sets evaluated by the forward models and how many of them failed (NaN
+        predictions).
     """
 
     def __init__(self, experiments: Sequence[ExperimentTerm], material: ParameterSet):
@@ -131,7 +134,8 @@ class CalibrationProblem:
         self.n_evaluations = 0
         self.n_failed = 0
 
-    # ---- layout ------------------------------------------------------------------------------------
+    # ---- layout
+    # ------------------------------------------------------------------------------------
     @property
     def ndim(self) -> int:
         """Number of sampled parameters (material + nuisance)."""
@@ -156,9 +160,7 @@ class CalibrationProblem:
         single = theta.ndim == 1
         theta = np.atleast_2d(theta)
         if theta.ndim != 2 or theta.shape[1] != self.ndim:
-            raise ValidationError(
-                "theta", f"array of shape {np.shape(theta)}", f"shape (n_sets, {self.ndim})"
-            )
+            raise ValidationError("theta", f"array of shape {np.shape(theta)}", f"shape (n_sets, {self.ndim})")
         return theta, single
 
     def material_full(self, theta) -> np.ndarray:
@@ -166,9 +168,11 @@ class CalibrationProblem:
         theta, _ = self._batch(theta)
         return self.material.expand(theta[:, : self.n_material])
 
-    # ---- forward and likelihood --------------------------------------------------------------------
+    # ---- forward and likelihood
+    # --------------------------------------------------------------------
     def predict_material(self, theta_material) -> list[np.ndarray]:
-        """Predictions per experiment from the sampled *material* parameters ``(n_sets, n_material)``."""
+        """Predictions per experiment from the sampled *material* parameters ``(n_sets,
+        n_material)``."""
         tm = np.atleast_2d(np.asarray(theta_material, dtype=float))
         full = self.material.expand(tm)
         out = []
@@ -197,11 +201,12 @@ class CalibrationProblem:
         return theta[:, self._nuis_slices[k]]
 
     def log_likelihood_pointwise(self, theta, predictions=None) -> list[np.ndarray]:
-        """Pointwise log-likelihood per experiment, each ``(n_sets, n_obs_e)``; ``-inf`` for failed rows."""
+        """Pointwise log-likelihood per experiment, each ``(n_sets, n_obs_e)``; ``-inf`` for failed
+        rows."""
         theta, _ = self._batch(theta)
         preds = self.predict(theta) if predictions is None else predictions
         out = []
-        for k, (e, pred) in enumerate(zip(self.experiments, preds)):
+        for k, (e, pred) in enumerate(zip(self.experiments, preds, strict=False)):
             resid = pred - e.observed
             with np.errstate(invalid="ignore", over="ignore"):
                 ll = e.noise.loglik_pointwise(resid, self.nuisance(theta, k))
@@ -222,7 +227,8 @@ class CalibrationProblem:
         return float(lp[0]) if single else lp
 
     def log_posterior(self, theta) -> np.ndarray:
-        """Unnormalised log-posterior in natural units; the forward model is only run inside the box."""
+        """Unnormalised log-posterior in natural units; the forward model is only run inside the
+        box."""
         theta, single = self._batch(theta)
         lp = self.parameters.log_prior(theta)
         inside = np.isfinite(lp)
@@ -233,27 +239,29 @@ class CalibrationProblem:
         return float(out[0]) if single else out
 
     def log_posterior_unconstrained(self, z) -> np.ndarray:
-        """The sampler's target: :math:`\\log p(\\theta(z) \\mid y) + \\log|d\\theta/dz|`, ``(n_sets,)``."""
+        """The sampler's target: :math:`\\log p(\\theta(z) \\mid y) + \\log|d\\theta/dz|`,
+        ``(n_sets,)``."""
         z, single = self._batch(z)
         theta = self.parameters.from_unconstrained(z)
         out = self.log_posterior(theta) + self.parameters.log_abs_det_jacobian(z)
         out[~np.isfinite(out)] = -np.inf
         return float(out[0]) if single else out
 
-    # ---- least-squares view ------------------------------------------------------------------------
+    # ---- least-squares view
+    # ------------------------------------------------------------------------
     def residual_scales(self) -> np.ndarray:
-        """Per-observation divisor for the least-squares residuals: the known sd, else 1 (the paper)."""
-        return np.concatenate(
-            [np.full(e.observed.size, e.noise.sd or 1.0) for e in self.experiments]
-        )
+        """Per-observation divisor for the least-squares residuals: the known sd, else 1 (the
+        paper)."""
+        return np.concatenate([np.full(e.observed.size, e.noise.sd or 1.0) for e in self.experiments])
 
     def residuals(self, theta_material, *, fail_value: float = 1e6) -> np.ndarray:
         """Stacked scaled residuals ``(n_sets, n_obs)`` of the material parameters (paper eq. 11).
 
-        Failed solves give ``fail_value`` (the least-squares solver cannot take NaN); they are counted.
+        Failed solves give ``fail_value`` (the least-squares solver cannot take NaN); they are
+        counted.
         """
         preds = self.predict_material(theta_material)
-        r = np.concatenate([p - e.observed for p, e in zip(preds, self.experiments)], axis=1)
+        r = np.concatenate([p - e.observed for p, e in zip(preds, self.experiments, strict=False)], axis=1)
         r = r / self.residual_scales()
         r[~np.isfinite(r)] = fail_value
         return r
@@ -269,11 +277,11 @@ class CalibrationProblem:
         theta = np.empty(self.ndim)
         theta[: self.n_material] = tm[0]
         lo, hi = self.parameters.lower, self.parameters.upper
-        for k, (e, p) in enumerate(zip(self.experiments, preds)):
+        for k, (e, p) in enumerate(zip(self.experiments, preds, strict=False)):
             sl = self._nuis_slices[k]
             names = self.names[sl]
             r = p[0] - e.observed
-            for j, name in zip(range(sl.start, sl.stop), names):
+            for j, name in zip(range(sl.start, sl.stop), names, strict=False):
                 if name.startswith("sigma_"):
                     val = float(np.sqrt(np.mean(r**2)))
                 else:

@@ -1,24 +1,28 @@
-"""Ensemble MCMC (emcee) of the calibration posterior: walkers, moves, checkpoints, automatic length.
+"""Ensemble MCMC (emcee) of the calibration posterior: walkers, moves, checkpoints, automatic
+length.
 
-The sampler targets :meth:`CalibrationProblem.log_posterior_unconstrained` (the posterior in the unconstrained
-space with the log-Jacobian) with ``vectorize=True``, so every half-ensemble update is one batched forward call.
+The sampler targets :meth:`CalibrationProblem.log_posterior_unconstrained` (the posterior in the
+unconstrained space with the log-Jacobian) with ``vectorize=True``, so every half-ensemble update is
+one batched forward call.
 
-* Walkers start around the least-squares optimum with scatter from its Laplace (Gauss-Newton) covariance, mapped
-  to :math:`z` by the Jacobian of the transform and clipped into the box (:func:`initial_walkers`).
+* Walkers start around the least-squares optimum with scatter from its Laplace (Gauss-Newton)
+  covariance, mapped to :math:`z` by the Jacobian of the transform and clipped into the box
+  (:func:`initial_walkers`).
 * Default moves: differential evolution 0.8 / DE-snooker 0.2 (ter Braak & Vrugt 2008,
-  doi:10.1007/s11222-008-9104-9; Nelson et al. 2014, doi:10.1088/0067-0049/210/1/11), which adapt to the strongly
-  correlated stiffness parameters better than the stretch move; selectable by name in :data:`MOVES`.
-* Seeded: ``sampler.random_state`` is set from the caller's Generator (emcee otherwise seeds from numpy's
-  global state): same seed, same chain.
-* Checkpoints: emcee ``HDFBackend`` (one group per ensemble); ``resume=True`` continues a killed run and gives the
-  same chain as an unbroken run, because the backend stores the random state with every step and the convergence
-  checks happen at fixed multiples of ``check_every``.
-* Automatic length: run until :math:`N \\ge 50 \\max_i \\hat\\tau_i` and every :math:`\\hat\\tau_i` changed by less
-  than 1 % since the previous check (Goodman & Weare 2010, doi:10.2140/camcos.2010.5.65; emcee's
-  autocorrelation tutorial), within ``max_steps``. Burn-in :math:`2\\max\\hat\\tau`, thinning
-  :math:`\\max(1, \\lfloor \\min\\hat\\tau / 2 \\rfloor)`.
-* Walkers of one ensemble are not independent chains, so :func:`sample_posterior` runs ``n_ensembles`` (>= 4 for
-  R-hat) independent ensembles, in parallel processes where cores allow.
+  doi:10.1007/s11222-008-9104-9; Nelson et al. 2014, doi:10.1088/0067-0049/210/1/11), which adapt to
+  the strongly correlated stiffness parameters better than the stretch move; selectable by name in
+  :data:`MOVES`.
+* Seeded: ``sampler.random_state`` is set from the caller's Generator (emcee otherwise seeds from
+  numpy's global state): same seed, same chain.
+* Checkpoints: emcee ``HDFBackend`` (one group per ensemble); ``resume=True`` continues a killed run
+  and gives the same chain as an unbroken run, because the backend stores the random state with
+  every step and the convergence checks happen at fixed multiples of ``check_every``.
+* Automatic length: run until :math:`N \\ge 50 \\max_i \\hat\\tau_i` and every :math:`\\hat\\tau_i`
+  changed by less than 1 % since the previous check (Goodman & Weare 2010,
+  doi:10.2140/camcos.2010.5.65; emcee's autocorrelation tutorial), within ``max_steps``. Burn-in
+  :math:`2\\max\\hat\\tau`, thinning :math:`\\max(1, \\lfloor \\min\\hat\\tau / 2 \\rfloor)`.
+* Walkers of one ensemble are not independent chains, so :func:`sample_posterior` runs
+  ``n_ensembles`` (>= 4 for R-hat) independent ensembles, in parallel processes where cores allow.
 """
 
 from __future__ import annotations
@@ -66,7 +70,8 @@ class SamplerOptions:
 
     Parameters
     ----------
-    n_walkers : walkers per ensemble; default ``4 * ndim`` (at least ``2 * ndim + 2``), rounded up to even.
+    n_walkers : walkers per ensemble; default ``4 * ndim`` (at least ``2 * ndim + 2``), rounded up
+    to even.
     moves : name in :data:`MOVES` (default DE 0.8 / DE-snooker 0.2).
     n_ensembles : independent ensembles (>= 4 for a between-ensemble R-hat).
     n_processes : parallel processes; default ``min(n_ensembles, os.cpu_count())``.
@@ -96,9 +101,7 @@ class SamplerOptions:
             v = getattr(self, name)
             if not (isinstance(v, int | np.integer) and v >= 1):
                 raise ValidationError(name, v, "an integer >= 1")
-        if self.n_walkers is not None and not (
-            isinstance(self.n_walkers, int | np.integer) and self.n_walkers >= 4
-        ):
+        if self.n_walkers is not None and not (isinstance(self.n_walkers, int | np.integer) and self.n_walkers >= 4):
             raise ValidationError("n_walkers", self.n_walkers, "an integer >= 4 or None")
         if self.n_processes is not None and not (
             isinstance(self.n_processes, int | np.integer) and self.n_processes >= 1
@@ -129,12 +132,13 @@ def initial_walkers(
 ) -> np.ndarray:
     """Initial walker positions in the unconstrained space, ``(n_walkers, ndim)``.
 
-    The centre :math:`\\hat\\theta` (natural units, clipped to :math:`u \\in [10^{-4}, 1 - 10^{-4}]` so a parameter
-    on its bound maps to a finite :math:`z`) is mapped to :math:`\\hat z`; the material block of ``cov``
-    (natural units, e.g. the Gauss-Newton covariance) is mapped by the transform's Jacobian
-    :math:`D = \\mathrm{diag}(dz/d\\theta)`, :math:`\\Sigma_z = D \\Sigma D`, its eigenvalues clipped to
-    ``[min_sd_z**2, max_sd_z**2]``; nuisance parameters get ``nuisance_sd_z``. Walkers with a non-finite
-    log-posterior are redrawn; the set passes emcee's linear-independence check.
+    The centre :math:`\\hat\\theta` (natural units, clipped to :math:`u \\in [10^{-4}, 1 - 10^{-4}]`
+    so a parameter on its bound maps to a finite :math:`z`) is mapped to :math:`\\hat z`; the
+    material block of ``cov`` (natural units, e.g. the Gauss-Newton covariance) is mapped by the
+    transform's Jacobian :math:`D = \\mathrm{diag}(dz/d\\theta)`, :math:`\\Sigma_z = D \\Sigma D`,
+    its eigenvalues clipped to ``[min_sd_z**2, max_sd_z**2]``; nuisance parameters get
+    ``nuisance_sd_z``. Walkers with a non-finite log-posterior are redrawn; the set passes emcee's
+    linear-independence check.
 
     Raises
     ------
@@ -188,7 +192,8 @@ def initial_walkers(
 
 @dataclass
 class EnsembleResult:
-    """One ensemble's run. Chains are stored thinned by ``store_thin`` (from tau) to keep results small.
+    """One ensemble's run. Chains are stored thinned by ``store_thin`` (from tau) to keep results
+    small.
 
     Attributes
     ----------
@@ -218,7 +223,8 @@ class EnsembleResult:
     resumed_at: int = 0
 
     def kept(self) -> tuple[np.ndarray, np.ndarray]:
-        """Post-burn-in stored rows: ``(chain_z, log_prob)`` with shapes ``(n, n_walkers, ndim)``, ``(n, nw)``."""
+        """Post-burn-in stored rows: ``(chain_z, log_prob)`` with shapes ``(n, n_walkers, ndim)``,
+        ``(n, nw)``."""
         start = math.ceil(self.burn_in / self.store_thin)
         return self.chain_z[start:], self.log_prob[start:]
 
@@ -243,10 +249,12 @@ def run_ensemble(
     Parameters
     ----------
     problem : CalibrationProblem
-    p0 : (n_walkers, ndim) initial positions in the unconstrained space (ignored when resuming a run).
+    p0 : (n_walkers, ndim) initial positions in the unconstrained space (ignored when resuming a
+    run).
     options : SamplerOptions
     seed : integer seed of the sampler's RandomState.
-    backend_path : HDF5 file for emcee's ``HDFBackend`` (group ``ensemble_<id>``); None keeps it in memory.
+    backend_path : HDF5 file for emcee's ``HDFBackend`` (group ``ensemble_<id>``); None keeps it in
+    memory.
     resume : continue the run stored in ``backend_path`` instead of starting afresh.
     progress : ``progress(ensemble_id, steps_done, max_steps)`` after every chunk.
     """
@@ -344,7 +352,8 @@ class PosteriorSample:
         return sum(e.n_evaluations for e in self.ensembles)
 
     def kept_z(self) -> np.ndarray:
-        """Post-burn-in draws, ``(n_ensembles, n_draws, n_walkers, ndim)`` in z (common length, last rows)."""
+        """Post-burn-in draws, ``(n_ensembles, n_draws, n_walkers, ndim)`` in z (common length, last
+        rows)."""
         kept = [e.kept()[0] for e in self.ensembles]
         n = min(k.shape[0] for k in kept)
         return np.stack([k[k.shape[0] - n :] for k in kept])
@@ -365,7 +374,8 @@ class PosteriorSample:
         return d.reshape(-1, d.shape[-1])
 
 
-# ---- parallel ensembles ------------------------------------------------------------------------------
+# ---- parallel ensembles
+# ------------------------------------------------------------------------------
 _WORKER: dict = {}
 
 
@@ -411,9 +421,11 @@ def sample_posterior(
     ----------
     problem : CalibrationProblem
     center : (ndim,) starting point in natural units (least-squares estimate + nuisance estimates).
-    cov : (n_material, n_material) Laplace covariance for the initial scatter (None: small fixed scatter).
+    cov : (n_material, n_material) Laplace covariance for the initial scatter (None: small fixed
+    scatter).
     options : SamplerOptions
-    checkpoint : directory for the HDF5 checkpoints, one file per ensemble (``ensemble_<k>.h5``; HDF5
+    checkpoint : directory for the HDF5 checkpoints, one file per ensemble (``ensemble_<k>.h5``;
+    HDF5
         files must not be written by two processes at once).
     resume : continue the runs stored in ``checkpoint``.
     progress : ``progress(ensemble_id, steps_done, max_steps)``, called in this process.
@@ -421,18 +433,15 @@ def sample_posterior(
 
     Notes
     -----
-    Worker processes are forked (POSIX), so the problem and its forward callables need not be picklable;
-    without ``fork`` the ensembles run one after another.
+    Worker processes are forked (POSIX), so the problem and its forward callables need not be
+    picklable; without ``fork`` the ensembles run one after another.
     """
     rng = np.random.default_rng(rng)
     ndim = problem.ndim
     nw = options.walkers(ndim)
     n_ens = options.n_ensembles
     seeds = [int(s) for s in rng.integers(2**32 - 1, size=n_ens)]
-    p0s = [
-        initial_walkers(problem, center, nw, cov=cov, scatter=options.scatter, rng=rng)
-        for _ in range(n_ens)
-    ]
+    p0s = [initial_walkers(problem, center, nw, cov=cov, scatter=options.scatter, rng=rng) for _ in range(n_ens)]
     paths = [None] * n_ens
     if checkpoint is not None:
         Path(checkpoint).mkdir(parents=True, exist_ok=True)
@@ -444,10 +453,7 @@ def sample_posterior(
         ctx = mp.get_context("fork")
         q = ctx.Queue()
         with ProcessPoolExecutor(n_proc, mp_context=ctx, initializer=_init_worker, initargs=(problem, q)) as ex:
-            futs = [
-                ex.submit(_worker, k, p0s[k], seeds[k], options, paths[k], resume)
-                for k in range(n_ens)
-            ]
+            futs = [ex.submit(_worker, k, p0s[k], seeds[k], options, paths[k], resume) for k in range(n_ens)]
             while not all(f.done() for f in futs):
                 try:
                     msg = q.get(timeout=0.2)

@@ -1,25 +1,27 @@
-"""Deterministic warm start: the paper's bounded nonlinear least squares, multi-start, Wald intervals.
+"""Deterministic warm start: the paper's bounded nonlinear least squares, multi-start, Wald
+intervals.
 
 The paper (Section 2.7, eq. 10-11) minimises
 
 .. math:: F(\\alpha) = \\tfrac12 \\sum_{i} (\\varphi_i(\\alpha) - \\bar\\varphi_i)^2
 
-over the box with Matlab's trust-region interior-reflective method, scaling each parameter by its initial guess
-(Section 2.7.1: :math:`s_i = \\alpha^0_i`). :func:`fit_least_squares` is the same method,
-``scipy.optimize.least_squares(method="trf", bounds=..., x_scale=s)`` (Branch, Coleman & Li 1999,
-doi:10.1137/S1064827595289108), with a batched forward-difference Jacobian (one batched forward call per
-Jacobian). At the optimum it reports the Gauss-Newton covariance and Wald intervals
+over the box with Matlab's trust-region interior-reflective method, scaling each parameter by its
+initial guess (Section 2.7.1: :math:`s_i = \\alpha^0_i`). :func:`fit_least_squares` is the same
+method, ``scipy.optimize.least_squares(method="trf", bounds=..., x_scale=s)`` (Branch, Coleman & Li
+1999, doi:10.1137/S1064827595289108), with a batched forward-difference Jacobian (one batched
+forward call per Jacobian). At the optimum it reports the Gauss-Newton covariance and Wald intervals
 
 .. math::
 
     \\hat\\Sigma = s^2 (J^T J)^{-1}, \\quad s^2 = \\frac{2 F(\\hat\\alpha)}{n - p}, \\qquad
     \\hat\\alpha_i \\pm z_{(1+c)/2} \\sqrt{\\hat\\Sigma_{ii}},
 
-which are only meaningful for parameters away from the bounds and directions the data inform (singular values of
-:math:`J` below ``rcond`` times the largest are clipped, giving huge but finite variances).
+which are only meaningful for parameters away from the bounds and directions the data inform
+(singular values of :math:`J` below ``rcond`` times the largest are clipped, giving huge but finite
+variances).
 
-:func:`fit_multistart` repeats the fit from a Latin hypercube of starts in the scaled box (the sampler's
-:math:`u`-space) and clusters the optima by their cost.
+:func:`fit_multistart` repeats the fit from a Latin hypercube of starts in the scaled box (the
+sampler's :math:`u`-space) and clusters the optima by their cost.
 """
 
 from __future__ import annotations
@@ -53,10 +55,12 @@ class LeastSquaresResult:
     names : parameter names; x : estimate (natural units); x0 : start; x_scale : scaling used.
     cost : :math:`F = \\tfrac12 \\sum r^2` (scaled residuals); s2 : :math:`2F/(n-p)`.
     jac : (n_obs, p) Jacobian of the scaled residuals at ``x``; cov : Gauss-Newton covariance.
-    wald_lower, wald_upper : Wald interval at ``level``; active : (p,) int, -1 lower / +1 upper bound active.
+    wald_lower, wald_upper : Wald interval at ``level``; active : (p,) int, -1 lower / +1 upper
+    bound active.
     rank, cond : numerical rank and condition number of ``jac``.
     nit, nfev, njev, time_s, status, message : solver bookkeeping.
-    history_scaled : (nit + 1, p) parameters divided by ``x_scale`` per iteration (paper Figs. 9, 11);
+    history_scaled : (nit + 1, p) parameters divided by ``x_scale`` per iteration (paper Figs. 9,
+    11);
     history_cost : (nit + 1,) cost per iteration.
     """
 
@@ -91,34 +95,45 @@ class LeastSquaresResult:
     def active_names(self) -> list[str]:
         """Parameters whose bound is active, as ``name (lower|upper)``."""
         return [
-            f"{n} ({'lower' if a < 0 else 'upper'})"
-            for n, a in zip(self.names, self.active)
-            if a != 0
+            f"{n} ({'lower' if a < 0 else 'upper'})" for n, a in zip(self.names, self.active, strict=False) if a != 0
         ]
 
 
 class _Jacobian:
-    """Batched forward differences of the scaled residuals with bound-aware step direction."""
+    """Batched forward differences of the scaled residuals in the solver's variables ``v``.
 
-    def __init__(self, problem, lb, ub, step_scale):
-        self.problem, self.lb, self.ub, self.step_scale = problem, lb, ub, step_scale
-        self.last_x = None
+    ``to_x`` maps the solver variables to the natural parameters (identity, or the scaled box).
+    """
+
+    def __init__(self, problem, to_x, lb, ub, step_scale):
+        self.problem, self.to_x, self.lb, self.ub = problem, to_x, lb, ub
+        self.step_scale = step_scale
+        self.last_v = None
         self.last_f = None
 
-    def fun(self, x):
-        f = self.problem.residuals(x[None, :])[0]
-        self.last_x, self.last_f = x.copy(), f
+    def fun(self, v):
+        f = self.problem.residuals(self.to_x(v[None, :]))[0]
+        self.last_v, self.last_f = v.copy(), f
         return f
 
-    def jac(self, x):
-        if self.last_x is None or not np.array_equal(x, self.last_x):
-            self.fun(x)
+    def jac(self, v):
+        if self.last_v is None or not np.array_equal(v, self.last_v):
+            self.fun(v)
         f0 = self.last_f
-        h = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(x), self.step_scale)
-        h = np.where(x + h > self.ub, -h, h)
-        xs = x[None, :] + np.diag(h)
-        fs = self.problem.residuals(xs)
+        h = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(v), self.step_scale)
+        h = np.where(v + h > self.ub, -h, h)
+        vs = v[None, :] + np.diag(h)
+        fs = self.problem.residuals(self.to_x(vs))
         return ((fs - f0[None, :]) / h[:, None]).T
+
+
+def _dx_du(mat, u):
+    """Derivative of the natural parameters with respect to the scaled box coordinates."""
+    is_log = np.array([sp.scale == "log" for sp in mat.sampled])
+    lo, hi = mat.lower, mat.upper
+    x = mat.from_unit(u[None, :])[0]
+    span = np.where(is_log, np.log(hi / np.where(is_log, lo, 1.0)), hi - lo)
+    return span * np.where(is_log, x, 1.0)
 
 
 def _covariance(jac, s2, rcond):
@@ -142,6 +157,7 @@ def fit_least_squares(
     xtol: float = 1e-10,
     gtol: float = 1e-10,
     rcond: float = 1e-10,
+    space: str = "natural",
 ) -> LeastSquaresResult:
     """Fit the sampled material parameters by bounded trust-region-reflective least squares.
 
@@ -151,11 +167,15 @@ def fit_least_squares(
     x0 : (n_material,) array, optional
         Start (natural units); default the material parameters' initial values (the paper's guess).
     x_scale : "initial", "jac" or array
-        ``"initial"``: :math:`s_i = |x^0_i|` (:math:`1` where :math:`|x^0_i| \\le \\epsilon`) as in paper
-        Section 2.7.1; ``"jac"``: scipy's Jacobian-based scaling.
+        ``"initial"``: :math:`s_i = |x^0_i|` (:math:`1` where :math:`|x^0_i| \\le \\epsilon`) as in
+        paper Section 2.7.1; ``"jac"``: scipy's Jacobian-based scaling.
     level : coverage of the Wald intervals.
     max_nfev, ftol, xtol, gtol : passed to :func:`scipy.optimize.least_squares`.
     rcond : relative singular-value cut-off for the covariance.
+    space : ``"natural"`` fits the parameters in their units with bounds (the paper's method);
+        ``"unit"`` fits the scaled box coordinates :math:`u \\in [0, 1]` (log-scaled for the scale
+        parameters, the sampler's scaling), which copes better with parameters spanning decades. The
+        Jacobian, covariance and history are reported in natural units either way.
 
     Raises
     ------
@@ -172,32 +192,38 @@ def fit_least_squares(
     out = np.flatnonzero((x0 < lb) | (x0 > ub) | ~np.isfinite(x0))
     if out.size:
         i = out[0]
-        raise ValidationError(
-            f"initial guess {names[i]}", float(x0[i]), f"a value inside the box [{lb[i]}, {ub[i]}]"
-        )
+        raise ValidationError(f"initial guess {names[i]}", float(x0[i]), f"a value inside the box [{lb[i]}, {ub[i]}]")
+    if space not in ("natural", "unit"):
+        raise ValidationError("space", space, "'natural' (the paper) or 'unit' (scaled box)")
     eps = np.finfo(float).eps
+    paper_scale = np.where(np.abs(x0) > eps, np.abs(x0), 1.0)
     if isinstance(x_scale, str) and x_scale == "initial":
-        scale = np.where(np.abs(x0) > eps, np.abs(x0), 1.0)
+        scale = paper_scale if space == "natural" else np.ones_like(x0)
     elif isinstance(x_scale, str) and x_scale == "jac":
         scale = "jac"
     else:
         scale = np.asarray(x_scale, dtype=float)
         if scale.shape != x0.shape or np.any(~(scale > 0)):
             raise ValidationError("x_scale", x_scale, f"'initial', 'jac' or {len(names)} positive values")
-    hist_scale = scale if not isinstance(scale, str) else np.where(np.abs(x0) > eps, np.abs(x0), 1.0)
-    jac = _Jacobian(problem, lb, ub, hist_scale)
-    history, costs = [x0 / hist_scale], [0.5 * float(np.sum(jac.fun(x0) ** 2))]
+    if space == "natural":
+        to_x, v0, vlb, vub = (lambda v: v), x0, lb, ub
+    else:
+        to_x, v0 = mat.from_unit, mat.to_unit(x0)
+        vlb, vub = np.zeros_like(x0), np.ones_like(x0)
+    step = scale if not isinstance(scale, str) else np.ones_like(x0)
+    jac = _Jacobian(problem, to_x, vlb, vub, step if space == "natural" else 1e-3 * step)
+    history, costs = [x0 / paper_scale], [0.5 * float(np.sum(jac.fun(v0) ** 2))]
 
     def callback(intermediate_result):
-        history.append(np.asarray(intermediate_result.x) / hist_scale)
+        history.append(to_x(np.asarray(intermediate_result.x)[None, :])[0] / paper_scale)
         costs.append(float(intermediate_result.cost))
 
     t0 = time.perf_counter()
     res = least_squares(
         jac.fun,
-        x0,
+        v0,
         jac=jac.jac,
-        bounds=(lb, ub),
+        bounds=(vlb, vub),
         method="trf",
         x_scale=scale,
         max_nfev=max_nfev,
@@ -207,23 +233,28 @@ def fit_least_squares(
         callback=callback,
     )
     elapsed = time.perf_counter() - t0
+    x_hat = to_x(res.x[None, :])[0]
+    jac_x = res.jac
+    if space == "unit":  # chain rule to natural units: J_x = J_v / (dx/dv)
+        dxdv = _dx_du(mat, res.x)
+        jac_x = res.jac / dxdv[None, :]
     n, p = res.fun.size, res.x.size
     s2 = 2.0 * float(res.cost) / max(n - p, 1)
-    cov, rank, cond = _covariance(res.jac, s2, rcond)
+    cov, rank, cond = _covariance(jac_x, s2, rcond)
     z = norm.ppf(0.5 + level / 2.0)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     return LeastSquaresResult(
         names=names,
-        x=res.x,
+        x=x_hat,
         x0=x0,
-        x_scale=hist_scale,
+        x_scale=paper_scale,
         cost=float(res.cost),
         s2=s2,
-        jac=res.jac,
+        jac=jac_x,
         cov=cov,
         level=level,
-        wald_lower=res.x - z * sd,
-        wald_upper=res.x + z * sd,
+        wald_lower=x_hat - z * sd,
+        wald_upper=x_hat + z * sd,
         active=np.asarray(res.active_mask, dtype=int),
         rank=rank,
         cond=cond,
@@ -239,17 +270,19 @@ def fit_least_squares(
 
 
 def latin_hypercube(n: int, d: int, *, rng=None) -> np.ndarray:
-    """``n`` points of a Latin hypercube in :math:`[0, 1]^d` (one point per stratum in each dimension)."""
+    """``n`` points of a Latin hypercube in :math:`[0, 1]^d` (one point per stratum in each
+    dimension)."""
     rng = np.random.default_rng(rng)
     strata = np.column_stack([rng.permutation(n) for _ in range(d)])
     return (strata + rng.random((n, d))) / n
 
 
 def cluster_optima(costs, *, cost_rtol: float = 1e-3) -> np.ndarray:
-    """Label optima with the same cost (within ``cost_rtol`` relative) as one cluster, 0 = lowest cost.
+    """Label optima with the same cost (within ``cost_rtol`` relative) as one cluster, 0 = lowest
+    cost.
 
-    Costs must be sorted ascending. Optima of one cluster may still differ in parameters the data do not
-    inform; :class:`MultistartResult` reports the spread within the best cluster.
+    Costs must be sorted ascending. Optima of one cluster may still differ in parameters the data do
+    not inform; :class:`MultistartResult` reports the spread within the best cluster.
     """
     costs = np.asarray(costs, dtype=float)
     labels = np.zeros(costs.size, dtype=int)
@@ -281,8 +314,9 @@ class MultistartResult:
         return np.array([r.cost for r in self.results])
 
     def best_cluster_spread(self, problem: CalibrationProblem) -> np.ndarray:
-        """Range (max - min) of each parameter within the best cluster, in scaled-box units :math:`u`."""
-        xs = np.array([r.x for r, lab in zip(self.results, self.labels) if lab == 0])
+        """Range (max - min) of each parameter within the best cluster, in scaled-box units
+        :math:`u`."""
+        xs = np.array([r.x for r, lab in zip(self.results, self.labels, strict=False) if lab == 0])
         u = problem.material.to_unit(xs)
         return u.max(axis=0) - u.min(axis=0)
 
@@ -300,11 +334,14 @@ def fit_multistart(
 
     Parameters
     ----------
-    n_starts : number of random starts (Latin hypercube in :math:`u`-space, the sampler's scaled box).
-    include_initial : also start from the parameters' initial values (the paper's :math:`\\alpha^0`).
+    n_starts : number of random starts (Latin hypercube in :math:`u`-space, the sampler's scaled
+    box).
+    include_initial : also start from the parameters' initial values (the paper's
+    :math:`\\alpha^0`).
     cost_rtol : relative cost tolerance for :func:`cluster_optima`.
     rng : seed or Generator.
-    **options : passed to :func:`fit_least_squares` (``x_scale`` defaults to each start, as in the paper).
+    **options : passed to :func:`fit_least_squares` (``x_scale`` defaults to each start, as in the
+    paper).
     """
     rng = np.random.default_rng(rng)
     if int(n_starts) < 0:
@@ -321,6 +358,4 @@ def fit_multistart(
     results = [fit_least_squares(problem, x0, **options) for x0 in starts]
     results.sort(key=lambda r: r.cost)
     labels = cluster_optima([r.cost for r in results], cost_rtol=cost_rtol)
-    return MultistartResult(
-        results, labels, time.perf_counter() - t0, problem.n_failed, mat.sampled_names
-    )
+    return MultistartResult(results, labels, time.perf_counter() - t0, problem.n_failed, mat.sampled_names)

@@ -11,8 +11,9 @@ Point counts (``data/stereology_counts.csv``)
     other_points``),
     optional ``block`` (label of an independent unit: tissue block or animal). Comment keys:
     ``excluded``
-    (comma-separated components outside the reference space, default ``other``), ``grid_spacing_um``
-    (optional), ``n_series`` (sections in the whole series), ``period``.
+    (comma-separated components outside the reference space, default ``other`` and ``cavity``), ``grid_spacing_um``
+    (optional), ``n_series`` (sections in the whole series), ``period``, ``nugget_shape_factor`` (profile
+    b / sqrt(a)) and ``nugget_profiles_per_section`` (for the point-counting noise of the CE).
 
 Line system (``data/stereology_lines.csv`` + ``data/stereology_lines.toml``)
     One row per straight segment: ``cell`` (id of the traced cell), ``x0_um, y0_um, z0_um, x1_um,
@@ -104,10 +105,16 @@ def read_point_counts(path: str | Path) -> dict:
         if cols[c].dtype.kind not in "fi":
             raise ValidationError(f"column {c}", cols[c][:3].tolist(), "numeric point counts")
     components = tuple(c[: -len("_points")] for c in names)
-    excluded = tuple(s.strip() for s in meta.get("excluded", "other").split(",") if s.strip())
-    excluded = tuple(e for e in excluded if e in components) if "excluded" not in meta else excluded
+    if "excluded" in meta:
+        excluded = tuple(s.strip() for s in meta["excluded"].split(",") if s.strip())
+    else:
+        excluded = tuple(e for e in ("other", "cavity") if e in components)
     gs = meta.get("grid_spacing_um")
+    sf = meta.get("nugget_shape_factor")
+    pp = meta.get("nugget_profiles_per_section")
     return {
+        "nugget_shape_factor": float(sf) if sf else None,
+        "nugget_profiles_per_section": float(pp) if pp else None,
         "section": cols["section"].astype(int),
         "counts": np.stack([cols[c] for c in names], axis=1),
         "components": components,

@@ -64,7 +64,9 @@ def read_table(path: str | Path, *, required: tuple[str, ...] = ()) -> tuple[dic
     for k, row in enumerate(rows[1:], start=2):
         if len(row) != len(header):
             raise ValidationError(
-                f"{path.name} data row {k - 1}", ",".join(row), f"{len(header)} comma-separated values"
+                f"{path.name} data row {k - 1}",
+                ",".join(row),
+                f"{len(header)} comma-separated values",
             )
     columns: dict[str, np.ndarray] = {}
     for j, name in enumerate(header):
@@ -75,14 +77,16 @@ def read_table(path: str | Path, *, required: tuple[str, ...] = ()) -> tuple[dic
             columns[name] = np.array(raw, dtype=str)
     missing = [c for c in required if c not in columns]
     if missing:
-        raise ValidationError(
-            f"{path.name} columns", header, f"columns {list(required)}", f"missing {missing}"
-        )
+        raise ValidationError(f"{path.name} columns", header, f"columns {list(required)}", f"missing {missing}")
     return columns, meta
 
 
 def write_table(
-    path: str | Path, columns: dict[str, np.ndarray], *, meta: dict | None = None, fmt: str = "%.10g"
+    path: str | Path,
+    columns: dict[str, np.ndarray],
+    *,
+    meta: dict | None = None,
+    fmt: str = "%.10g",
 ) -> Path:
     """Write ``columns`` (equal-length 1-D arrays) as CSV with ``# key: value`` comment lines first."""
     path = Path(path)
@@ -91,7 +95,7 @@ def write_table(
     arrays = [np.asarray(columns[n]) for n in names]
     n = {a.shape[0] for a in arrays}
     if len(n) != 1:
-        raise ValidationError("columns", {k: a.shape for k, a in zip(names, arrays)}, "equal lengths")
+        raise ValidationError("columns", {k: a.shape for k, a in zip(names, arrays, strict=True)}, "equal lengths")
     with path.open("w", newline="") as fh:
         for k, v in (meta or {}).items():
             fh.write(f"# {k}: {v}\n")

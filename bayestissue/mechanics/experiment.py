@@ -92,8 +92,7 @@ class Experiment:
 
     def __post_init__(self):
         dims = tuple(
-            check_positive(f"specimen.length_{ax}_mm", v)
-            for ax, v in zip("xyz", self.specimen_mm, strict=True)
+            check_positive(f"specimen.length_{ax}_mm", v) for ax, v in zip("xyz", self.specimen_mm, strict=True)
         )
         object.__setattr__(self, "specimen_mm", dims)
         dt = check_positive("simulation.dt_s", self.dt_s)

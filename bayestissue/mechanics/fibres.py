@@ -33,6 +33,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
+
 __all__ = [
     "KelvinFibres",
     "fibre_structure",
@@ -48,12 +50,19 @@ def fibre_structure(directions) -> np.ndarray:
     """(n_f, 3) unit directions -> (n_f, 6) Voigt components of the structure tensors ``M_k = v_k (x) v_k``."""
     v = np.asarray(directions, dtype=float)
     return np.stack(
-        [v[:, 0] ** 2, v[:, 1] ** 2, v[:, 2] ** 2, v[:, 0] * v[:, 1], v[:, 0] * v[:, 2], v[:, 1] * v[:, 2]],
+        [
+            v[:, 0] ** 2,
+            v[:, 1] ** 2,
+            v[:, 2] ** 2,
+            v[:, 0] * v[:, 1],
+            v[:, 0] * v[:, 2],
+            v[:, 1] * v[:, 2],
+        ],
         axis=1,
     )
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def kelvin_step_constants(gamma, beta, dt, ea, eh, c):
     """Fill per-fibre ``ea = exp(-beta dt)``, ``eh = exp(-beta dt / 2)``, ``c = 1 - gamma eh`` (eq. (5))."""
     for k in range(gamma.shape[0]):
@@ -62,7 +71,7 @@ def kelvin_step_constants(gamma, beta, dt, ea, eh, c):
         c[k] = 1.0 - gamma[k] * eh[k]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def fibre_stress_tangent(e, M, phi, ginf, eps0, c, q, S, D, tau, want_tangent):
     """Add the fibre stress to ``S`` (6,) and, if ``want_tangent``, its tangent to ``D`` (6, 6).
 
@@ -86,7 +95,7 @@ def fibre_stress_tangent(e, M, phi, ginf, eps0, c, q, S, D, tau, want_tangent):
             tau[k] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def fibre_tension(e, M, ginf, eps0, c, q, tau):
     """Eqs. (5)-(6) only: the tensions ``tau`` (n_f,) at Voigt strain ``e`` (no stress, no tangent)."""
     for k in range(M.shape[0]):
@@ -95,7 +104,7 @@ def fibre_tension(e, M, ginf, eps0, c, q, tau):
         tau[k] = max(0.0, (ginf[k] * (eps - eps0[k]) + q[k]) / c[k])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def fibre_energy(e, M, phi, ginf, eps0, c, q):
     r"""Incremental fibre potential :math:`\sum_k \phi_k w_k` whose strain derivative is the tension of eq. (6).
 
@@ -115,7 +124,7 @@ def fibre_energy(e, M, phi, ginf, eps0, c, q):
     return w
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def kelvin_history_update(tau_new, tau_old, h, ea, eh):
     """Eq. (7): ``h <- ea h + eh (tau_new - tau_old)`` in place."""
     for k in range(h.shape[0]):
@@ -123,7 +132,7 @@ def kelvin_history_update(tau_new, tau_old, h, ea, eh):
 
 
 class KelvinFibres:
-    """A single Kelvin fibre driven by its strain history (pure Python, for checks and plots).
+    """One Kelvin fibre driven through the compiled update of eqs. (5)-(9) (for checks and plots).
 
     Parameters
     ----------
@@ -134,26 +143,34 @@ class KelvinFibres:
     """
 
     def __init__(self, ginf: float, gamma: float, beta: float, *, eps0: float = 0.0):
-        self.ginf, self.gamma, self.beta, self.eps0 = float(ginf), float(gamma), float(beta), float(eps0)
+        self.ginf, self.gamma, self.beta, self.eps0 = (
+            float(ginf),
+            float(gamma),
+            float(beta),
+            float(eps0),
+        )
 
     def strain_for_constant_tension(self, tension_kpa: float, time_s) -> np.ndarray:
-        """Strain history that keeps the discrete tension at ``tension_kpa`` from the first step on.
+        r"""Strain history that holds the discrete tension at ``tension_kpa`` from the first step on.
 
-        Inverts eq. (5) for the strain at each step of the (uniform) grid ``time_s`` (``time_s[0] = 0``, fibre
-        unloaded there). The closed form it converges to as dt -> 0 is
-        :math:`\\varepsilon(t) = (\\tau_0/g_\\infty)(1 - \\gamma e^{-\\beta t})` (MODEL.md).
+        At each step of the uniform grid ``time_s`` (``time_s[0] = 0``: unloaded) eq. (5) is inverted for the
+        strain (the trial tension is affine in it), the compiled kernel evaluates the tension there and eq. (7)
+        updates the history. The closed form it converges to as dt -> 0 is
+        :math:`\varepsilon(t) = (\tau_0/g_\infty)(1 - \gamma e^{-\beta t})` (MODEL.md).
         """
         t = np.asarray(time_s, dtype=float)
         dt = t[1] - t[0]
-        eh = np.exp(-0.5 * self.beta * dt)
-        ea = eh * eh
-        c = 1.0 - self.gamma * eh
+        M = np.array([[1.0, 0.0, 0.0, 0.0, 0.0, 0.0]])
+        ginf, eps0 = np.array([self.ginf]), np.array([self.eps0])
+        ea, eh, c = np.empty(1), np.empty(1), np.empty(1)
+        kelvin_step_constants(np.array([self.gamma]), np.array([self.beta]), dt, ea, eh, c)
+        tau_old = np.array([max(0.0, -self.ginf * self.eps0)])
+        h, tau, q, e = np.zeros(1), np.empty(1), np.empty(1), np.zeros(6)
         eps = np.zeros_like(t)
-        tau, h = max(0.0, -self.ginf * self.eps0), 0.0
-        eps[0] = 0.0
         for n in range(1, t.size):
-            q = self.gamma * (ea * h - eh * tau)
-            eps[n] = (c * tension_kpa - q) / self.ginf + self.eps0
-            h = ea * h + eh * (tension_kpa - tau)
-            tau = tension_kpa
+            q[0] = self.gamma * (ea[0] * h[0] - eh[0] * tau_old[0])
+            e[0] = eps[n] = self.eps0 + (c[0] * tension_kpa - q[0]) / self.ginf
+            fibre_tension(e, M, ginf, eps0, c, q, tau)
+            kelvin_history_update(tau, tau_old, h, ea, eh)
+            tau_old[:] = tau
         return eps

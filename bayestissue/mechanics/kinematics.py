@@ -15,7 +15,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["VOIGT_I", "VOIGT_J", "STRAIN_COMPONENTS", "to_voigt", "from_voigt", "right_cauchy_green"]
+from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
+
+__all__ = [
+    "VOIGT_I",
+    "VOIGT_J",
+    "STRAIN_COMPONENTS",
+    "to_voigt",
+    "from_voigt",
+    "right_cauchy_green",
+]
 
 VOIGT_I = np.array([0, 1, 2, 0, 0, 1])
 VOIGT_J = np.array([0, 1, 2, 1, 2, 2])
@@ -38,11 +47,14 @@ def from_voigt(v) -> np.ndarray:
     return t
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def right_cauchy_green(e, C, Ci):
     """Fill ``C = I + 2E`` and ``Ci = C^-1`` (3x3) from the Voigt strain ``e``; return ``det C``.
 
-    ``Ci`` is left undefined when ``det C <= 0`` (an inadmissible state, J <= 0).
+    Returns -1 and leaves ``Ci`` undefined when C is not positive definite (no deformation gradient has it; this
+    includes J <= 0): a Newton step into such a state is rejected. Checking ``det C > 0`` alone is not enough, as
+    C with two negative eigenvalues has a positive determinant and the equilibrium equations have spurious roots
+    there.
     """
     C[0, 0] = 1.0 + 2.0 * e[0]
     C[1, 1] = 1.0 + 2.0 * e[1]
@@ -54,8 +66,9 @@ def right_cauchy_green(e, C, Ci):
     a01 = C[0, 2] * C[2, 1] - C[0, 1] * C[2, 2]
     a02 = C[0, 1] * C[1, 2] - C[0, 2] * C[1, 1]
     det = C[0, 0] * a00 + C[1, 0] * a01 + C[2, 0] * a02
-    if det <= 0.0:
-        return det
+    # C = F^T F must be positive definite (Sylvester): det C > 0 alone admits two negative eigenvalues
+    if not (det > 0.0 and C[0, 0] > 0.0 and C[0, 0] * C[1, 1] - C[0, 1] * C[0, 1] > 0.0):
+        return -1.0
     inv = 1.0 / det
     Ci[0, 0] = a00 * inv
     Ci[0, 1] = Ci[1, 0] = a01 * inv

@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
 from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J, right_cauchy_green
 
 __all__ = ["matrix_stress_tangent", "matrix_stress", "matrix_energy"]
@@ -44,7 +45,7 @@ _VI = VOIGT_I
 _VJ = VOIGT_J
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
     """Matrix + penalty stress ``S`` (6,) and, if ``want_tangent``, tangent ``D`` (6, 6) at Voigt strain ``e``.
 
@@ -71,43 +72,39 @@ def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
         b = _VJ[i]
         dab = 1.0 if a == b else 0.0
         S[i] = (
-            a_nh * (dab - I1 / 3.0 * Ci[a, b])
-            + a_mr * (I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b])
-            + pv * Ci[a, b]
+            a_nh * (dab - I1 / 3.0 * Ci[a, b]) + a_mr * (I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b]) + pv * Ci[a, b]
         )
     if not want_tangent:
         return J
-    kv1 = bulk * (2.0 * J - 1.0) * J * 0.5
+    # Grouped form of the tangent (same terms as the module docstring, collected by tensor structure):
+    # dS/dC = alpha Ci(x)Ci + beta dCi/dC + G(x)Ci + Ci(x)G + a_mr (I(x)I - II),
+    # G = -a_nh/3 I - 2 a_mr/3 (I1 I - C).
+    alpha = a_nh * I1 / 9.0 + a_mr * 4.0 / 9.0 * I2 + bulk * (2.0 * J - 1.0) * J * 0.5
+    beta = -a_nh * I1 / 3.0 - a_mr * 2.0 / 3.0 * I2 + pv
     for i in range(6):
         a = _VI[i]
         b = _VJ[i]
-        dab = 1.0 if a == b else 0.0
-        snh = dab - I1 / 3.0 * Ci[a, b]
-        smr = I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b]
+        cab = Ci[a, b]
+        gab = -2.0 / 3.0 * a_mr * (-C[a, b]) if a != b else -a_nh / 3.0 - 2.0 / 3.0 * a_mr * (I1 - C[a, b])
         for j in range(i, 6):
             c = _VI[j]
             d = _VJ[j]
-            dcd = 1.0 if c == d else 0.0
+            ccd = Ci[c, d]
+            gcd = -2.0 / 3.0 * a_mr * (-C[c, d]) if c != d else -a_nh / 3.0 - 2.0 / 3.0 * a_mr * (I1 - C[c, d])
             dci = -0.5 * (Ci[a, c] * Ci[b, d] + Ci[a, d] * Ci[b, c])
-            sym = 0.5 * ((1.0 if a == c else 0.0) * (1.0 if b == d else 0.0)
-                         + (1.0 if a == d else 0.0) * (1.0 if b == c else 0.0))
-            t_nh = -snh * Ci[c, d] / 3.0 - Ci[a, b] * dcd / 3.0 - I1 / 3.0 * dci
-            t_mr = (
-                -2.0 / 3.0 * smr * Ci[c, d]
-                + dab * dcd
-                - sym
-                - 2.0 / 3.0 * Ci[a, b] * (I1 * dcd - C[c, d])
-                - 2.0 / 3.0 * I2 * dci
-            )
-            t_vol = kv1 * Ci[a, b] * Ci[c, d] + pv * dci
-            val = 2.0 * (a_nh * t_nh + a_mr * t_mr + t_vol)
+            iso = 0.0
+            if i < 3 and j < 3:
+                iso = 1.0 - (1.0 if i == j else 0.0)  # delta_ab delta_cd - II_abcd on the normal block
+            elif i == j:
+                iso = -0.5  # II_abab for a != b
+            val = 2.0 * (alpha * cab * ccd + beta * dci + gab * ccd + cab * gcd + a_mr * iso)
             D[i, j] = val * (1.0 if j < 3 else 2.0)
             if j != i:
                 D[j, i] = val * (1.0 if i < 3 else 2.0)
     return J
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FASTMATH)
 def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
     """Strain energy W (kPa) of matrix + penalty at Voigt strain ``e`` (NaN if J <= 0); see the module docstring."""
     det = right_cauchy_green(e, C, Ci)
@@ -121,10 +118,7 @@ def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
             trC2 += C[a, b] * C[a, b]
     I2 = 0.5 * (I1 * I1 - trC2)
     jm23 = 1.0 / np.cbrt(det)
-    return (
-        0.5 * phi_m * (mu * (jm23 * I1 - 3.0) + kappa * (jm23 * jm23 * I2 - 3.0))
-        + 0.5 * bulk * (J - 1.0) ** 2
-    )
+    return 0.5 * phi_m * (mu * (jm23 * I1 - 3.0) + kappa * (jm23 * jm23 * I2 - 3.0)) + 0.5 * bulk * (J - 1.0) ** 2
 
 
 def matrix_stress(e, mu, kappa, phi_m, bulk):
@@ -132,6 +126,15 @@ def matrix_stress(e, mu, kappa, phi_m, bulk):
     S = np.empty(6)
     D = np.empty((6, 6))
     J = matrix_stress_tangent(
-        np.asarray(e, dtype=float), mu, kappa, phi_m, bulk, S, D, True, np.empty((3, 3)), np.empty((3, 3))
+        np.asarray(e, dtype=float),
+        mu,
+        kappa,
+        phi_m,
+        bulk,
+        S,
+        D,
+        True,
+        np.empty((3, 3)),
+        np.empty((3, 3)),
     )
     return S, D, J

@@ -21,7 +21,13 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_finite, check_increasing, check_positive
 
-__all__ = ["CreepProtocol", "RampProtocol", "MeasuredForceProtocol", "PROTOCOLS", "protocol_from_mapping"]
+__all__ = [
+    "CreepProtocol",
+    "RampProtocol",
+    "MeasuredForceProtocol",
+    "PROTOCOLS",
+    "protocol_from_mapping",
+]
 
 
 @dataclass(frozen=True)
@@ -99,7 +105,9 @@ class MeasuredForceProtocol:
         col = d.get("force_column", "force_mN")
         if not columns or col not in columns or "time_s" not in columns:
             raise ValidationError(
-                "protocol.kind", "measured", f"a data file with columns time_s and {col}",
+                "protocol.kind",
+                "measured",
+                f"a data file with columns time_s and {col}",
                 "a measured protocol takes its load from the data file",
             )
         return cls(time_s=columns["time_s"], force_mN=columns[col])

@@ -32,6 +32,8 @@ class SimulationResult:
         Fibre tensions tau_k.
     nominal_stress_kpa : (n_steps + 1,) ndarray
         Applied P11.
+    iterations : (n_sets,) ndarray of int
+        Newton iterations plus line-search halvings over the whole run (cost diagnostic).
     """
 
     displacement_mm: np.ndarray
@@ -41,6 +43,7 @@ class SimulationResult:
     strain: np.ndarray
     tension_kpa: np.ndarray
     nominal_stress_kpa: np.ndarray
+    iterations: np.ndarray
 
 
 def simulate(experiment: Experiment, params, *, full: bool = False):
@@ -74,6 +77,7 @@ def simulate(experiment: Experiment, params, *, full: bool = False):
     shape_t = (n_sets, n_t, nf) if full else (1, 1, nf)
     strain = np.empty(shape_s)
     tension = np.empty(shape_t)
+    iterations = np.zeros(n_sets, dtype=np.int64)
     solve_uniaxial_batch(
         p2,
         np.ascontiguousarray(fibre_structure(tissue.directions)),
@@ -89,6 +93,7 @@ def simulate(experiment: Experiment, params, *, full: bool = False):
         strain,
         tension,
         full,
+        iterations,
     )
     i, w = experiment.interpolation()
     obs = u[:, i] * (1.0 - w) + u[:, i + 1] * w
@@ -101,5 +106,6 @@ def simulate(experiment: Experiment, params, *, full: bool = False):
             strain=strain,
             tension_kpa=tension,
             nominal_stress_kpa=load,
+            iterations=iterations,
         )
     return obs[0] if single else obs

@@ -57,9 +57,7 @@ for _v in PAPER_PARAMETERS.values():
     _v.setflags(write=False)
 
 #: MODEL.md Table 1 box constraints [min, max] per parameter (paper order).
-PAPER_BOUNDS = np.array(
-    [[0.001, 1000], [0.001, 1000]] + [[0.001, 1000], [0.1, 0.95], [0.00001, 2.5]] * 3, dtype=float
-)
+PAPER_BOUNDS = np.array([[0.001, 1000], [0.001, 1000]] + [[0.001, 1000], [0.1, 0.95], [0.00001, 2.5]] * 3, dtype=float)
 PAPER_BOUNDS.setflags(write=False)
 
 
@@ -140,9 +138,7 @@ class TissueConfig:
 
 
 #: The paper's composition: three fibre families of 0.2 each, matrix 0.4, K = 1000 kPa, eps0 = 0 (MODEL.md).
-PAPER_TISSUE = TissueConfig(
-    directions=PAPER_DIRECTIONS, phi_fibres=(0.2, 0.2, 0.2), phi_matrix=0.4, bulk_kpa=1000.0
-)
+PAPER_TISSUE = TissueConfig(directions=PAPER_DIRECTIONS, phi_fibres=(0.2, 0.2, 0.2), phi_matrix=0.4, bulk_kpa=1000.0)
 
 
 def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:
@@ -159,7 +155,9 @@ def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:
     p2 = np.atleast_2d(p)
     if p2.ndim != 2 or p2.shape[1] != len(names):
         raise ValidationError(
-            "params", f"array of shape {p.shape}", f"shape (n_sets, {len(names)}) in the order {names}"
+            "params",
+            f"array of shape {p.shape}",
+            f"shape (n_sets, {len(names)}) in the order {names}",
         )
     for j, name in enumerate(names):
         col = p2[:, j]
@@ -181,9 +179,7 @@ def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:
     return p
 
 
-def parse_parameters(
-    text: str, names: tuple[str, ...], *, base: np.ndarray | None = None
-) -> np.ndarray:
+def parse_parameters(text: str, names: tuple[str, ...], *, base: np.ndarray | None = None) -> np.ndarray:
     """Parse ``"mu=2.18,kappa=2.91,..."`` into a parameter vector, starting from ``base`` (default: the paper's
     initial guess) for the names not given. Unknown names raise a ValidationError listing the known ones."""
     if base is None:

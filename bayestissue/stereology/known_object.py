@@ -89,6 +89,7 @@ def simulate_surs_counts(
     n_starts: int,
     *,
     grid_spacing: float | None = None,
+    size_jitter: float = 0.0,
     rng=None,
 ) -> dict[str, np.ndarray]:
     """Systematic sections with random starts through ``phantom``, point counted.
@@ -110,21 +111,25 @@ def simulate_surs_counts(
     n_max).
     """
     T = check_positive("spacing", spacing)
+    jit = check_positive("size_jitter", size_jitter, allow_zero=True)
     rng = np.random.default_rng(rng)
-    R = phantom.radius_ref
-    n_max = int(np.ceil(2 * R / T)) + 1
+    n_starts = int(n_starts)
+    scale = 1.0 + jit * rng.random(n_starts) if jit > 0 else np.ones(n_starts)
+    R = phantom.radius_ref * scale[:, None]
+    n_max = int(np.ceil(2 * R.max() / T)) + 1
     u = T * rng.random(n_starts)
     z = -R + u[:, None] + T * np.arange(n_max)
     inside = z < R
-    rr, rp = phantom.section_radii(np.where(inside, z, R))
+    rr, rp = phantom.section_radii(np.where(inside, z / scale[:, None], phantom.radius_ref))
+    rr, rp = rr * scale[:, None], rp * scale[:, None]
     if grid_spacing is None:
         Pref = np.pi * rr**2 / T**2
         Q = np.pi * rp**2 / T**2
     else:
         d = check_positive("grid_spacing", grid_spacing)
         ox, oy = d * rng.random((2,) + z.shape)
-        Pref = _lattice_count(rr, ox, oy, d, R)
-        Q = _lattice_count(rp, ox, oy, d, R)
+        Pref = _lattice_count(rr, ox, oy, d, R.max())
+        Q = _lattice_count(rp, ox, oy, d, R.max())
     Pref = np.where(inside, Pref, 0.0)
     Q = np.where(inside, Q, 0.0)
     return {
@@ -140,6 +145,7 @@ def ce_check(
     spacing: float,
     *,
     grid_spacing: float | None = None,
+    size_jitter: float = 0.0,
     n_starts: int = 2000,
     n_naive: int = 50,
     n_boot: int = 400,
@@ -155,10 +161,12 @@ def ce_check(
     ``m0``,
     ``m1`` and ``q_hat``, ``classic`` (independent units, Cochran) and ``naive_bootstrap``
     (resampling the
-    sections of each sample, averaged over ``n_naive`` samples).
+    sections of each sample, averaged over ``n_naive`` samples). Options as :func:`simulate_surs_counts`.
     """
     rng = np.random.default_rng(rng)
-    sim = simulate_surs_counts(phantom, spacing, n_starts, grid_spacing=grid_spacing, rng=rng)
+    sim = simulate_surs_counts(
+        phantom, spacing, n_starts, grid_spacing=grid_spacing, size_jitter=size_jitter, rng=rng
+    )
     Q = sim["counts"][..., 0]
     P = sim["counts"].sum(axis=-1)
     vv = Q.sum(axis=1) / P.sum(axis=1)

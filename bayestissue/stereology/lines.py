@@ -153,6 +153,14 @@ class LineSystem:
         object.__setattr__(self, "end", e)
         object.__setattr__(self, "cell", c)
 
+    @classmethod
+    def from_file(cls, path) -> LineSystem:
+        """Read a line-system table and its sidecar (:func:`bayestissue.io.stereology_files.read_line_system`)."""
+        from bayestissue.io.stereology_files import read_line_system
+
+        d = read_line_system(path)
+        return cls(d["start"], d["end"], d["cell"], d["volume_um3"])
+
     @property
     def lengths(self) -> np.ndarray:
         """(n,) segment lengths in um."""

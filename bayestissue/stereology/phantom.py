@@ -1,22 +1,15 @@
-"""Synthetic smooth-muscle tissue in 3-D with known ground truth (the micrograph pipeline's test
-object).
+"""Synthetic smooth-muscle tissue in 3-D with known ground truth (the micrograph pipeline's test).
 
 The phantom is a voxel volume of three components, coded ``0 = cavity`` (haemocoelic sinus), ``1 =
-ECM``
-(collagen matrix) and ``2 = SMC`` (smooth muscle cells), plus a cell-id volume. Cells are
-spindle-shaped prolate
-ellipsoids (Kochova & Tonar 2014: about 72 um long with 3 um semi-axes) whose axes are drawn from a
-mixture of
-three Watson distributions; cavities are the high part of a smooth random field carved out of the
-space the cells
-leave free. The truth (voxel volume fractions, every cell's axis segment clipped to the volume, its
-length) is
-returned with the volume, so that every estimate of the pipeline can be compared with what it
-estimates.
+ECM`` (collagen matrix) and ``2 = SMC`` (smooth muscle cells), plus a cell-id volume. Cells are
+spindle-shaped prolate ellipsoids (Kochova & Tonar 2014: about 72 um long with 3 um semi-axes) whose
+axes are drawn from a mixture of three Watson distributions; cavities are the high part of a smooth
+random field carved out of the space the cells leave free. The truth (voxel volume fractions, every
+cell's axis segment clipped to the volume, its length) is returned with the volume, so that every
+estimate of the pipeline can be compared with what it estimates.
 
-Array order is ``(z, y, x)``; vectors and points are ``(x, y, z)`` in micrometres, the origin at
-the corner of
-voxel ``(0, 0, 0)`` (voxel centres at ``(i + 1/2) * voxel_um``).
+Array order is ``(z, y, x)``; vectors and points are ``(x, y, z)`` in micrometres, the origin at the
+corner of voxel ``(0, 0, 0)`` (voxel centres at ``(i + 1/2) * voxel_um``).
 """
 
 from __future__ import annotations
@@ -48,8 +41,7 @@ __all__ = [
 CAVITY, ECM, SMC = 0, 1, 2
 
 #: Default fibre axes (x, y, z): the paper's three SMC directions (MODEL.md; printed rounded, |v| =
-#: 0.9974),
-#: normalised.
+#: 0.9974), normalised.
 _PAPER_AXES = tuple(
     tuple(float(c) for c in np.asarray(v) / np.linalg.norm(v))
     for v in ((0.0, 1.0, 0.0), (0.9369, 0.3420, 0.0), (0.9369, -0.3420, 0.0))
@@ -76,9 +68,10 @@ class PhantomOptions:
     max_overlap : largest fraction of a new cell's voxels allowed to lie in earlier cells or in
         their
         ``gap_um`` neighbourhood (random sequential adsorption with a tolerance).
+    max_in_cavity : largest fraction of a candidate cell inside the sinuses (the sinuses cut the
+        cells they cross; cells mostly inside a sinus are not placed).
     gap_um : collagen sheath kept around earlier cells when testing overlap (0 allows touching
         cells).
-    sheath_um : least distance of the cavities from any cell (the collagen sheath around the cells).
     cavity_scale_um : correlation length (Gaussian filter sigma) of the random field the cavities
         are cut from.
     """
@@ -93,9 +86,9 @@ class PhantomOptions:
     weights: tuple[float, float, float] = (1 / 3, 1 / 3, 1 / 3)
     kappa: float = 20.0
     max_overlap: float = 0.25
-    gap_um: float = 1.0
-    sheath_um: float = 1.0
-    cavity_scale_um: float = 6.0
+    max_in_cavity: float = 0.5
+    gap_um: float = 0.0
+    cavity_scale_um: tuple[float, float, float] = (24.0, 8.0, 8.0)
     max_attempts: int = field(default=200_000)
 
     def __post_init__(self):
@@ -130,9 +123,13 @@ class PhantomOptions:
             raise ValidationError("weights", self.weights, "non-negative weights summing to 1")
         check_positive("kappa", self.kappa)
         check_interval("max_overlap", self.max_overlap, 0.0, 1.0)
+        check_interval("max_in_cavity", self.max_in_cavity, 0.0, 1.0)
         check_positive("gap_um", self.gap_um, allow_zero=True)
-        check_positive("sheath_um", self.sheath_um, allow_zero=True)
-        check_positive("cavity_scale_um", self.cavity_scale_um)
+        sc = np.asarray(self.cavity_scale_um, dtype=float)
+        if sc.shape != (3,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
+            raise ValidationError(
+                "cavity_scale_um", self.cavity_scale_um, "three positive lengths (z, y, x) in um"
+            )
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -172,12 +169,39 @@ class TissuePhantom:
 
     @property
     def lengths_um(self) -> np.ndarray:
-        """Length of every cell axis inside the block (um)."""
+        """Length of every cell axis inside the block (um), sinus crossings included."""
         return np.linalg.norm(self.segments_um[:, 1] - self.segments_um[:, 0], axis=1)
 
+    def tissue_lengths_um(self, box_um=None, *, step_um: float = 0.25) -> np.ndarray:
+        """Length of every cell axis inside tissue (not in a sinus) and inside ``box_um``.
+
+        Parameters
+        ----------
+        box_um : optional ((x0, x1), (y0, y1), (z0, z1)) sub-box in um (default: the whole block).
+        step_um : spacing of the sample points along each axis (length resolution).
+
+        Returns
+        -------
+        (n_cells,) ndarray of lengths in um.
+        """
+        step_um = check_positive("step_um", step_um)
+        shape = np.array(self.components.shape[::-1])  # (nx, ny, nz)
+        out = np.zeros(len(self.segments_um))
+        for i, (p0, p1) in enumerate(self.segments_um):
+            L = float(np.linalg.norm(p1 - p0))
+            n = max(2, int(np.ceil(L / step_um)))
+            t = (np.arange(n) + 0.5) / n
+            pts = p0 + t[:, None] * (p1 - p0)
+            ijk = np.clip((pts / self.voxel_um).astype(int), 0, shape - 1)
+            keep = self.components[ijk[:, 2], ijk[:, 1], ijk[:, 0]] != CAVITY
+            if box_um is not None:
+                bx = np.asarray(box_um, dtype=float)
+                keep &= np.all((pts >= bx[:, 0]) & (pts <= bx[:, 1]), axis=1)
+            out[i] = L * keep.mean()
+        return out
+
     def volume_fractions(self, region: tuple[slice, ...] | None = None) -> dict[str, float]:
-        """Voxel volume fractions: of the whole block (``*_total``) and of the tissue without
-        cavities."""
+        """Voxel volume fractions of the block (``*_total``) and of the tissue (``*_tissue``)."""
         c = self.components if region is None else self.components[region]
         n = np.bincount(c.ravel(), minlength=3).astype(float)
         tissue = n[ECM] + n[SMC]
@@ -189,10 +213,18 @@ class TissuePhantom:
             "ecm_tissue": n[ECM] / tissue if tissue else float("nan"),
         }
 
-    def length_density(self) -> float:
-        r"""True length density :math:`L_V = \sum_i \ell_i / V` (paper eq. 2) of the cell axes in
-        um^-2."""
-        return float(self.lengths_um.sum() / self.volume_um3)
+    def length_density(self, box_um=None) -> float:
+        r"""True length density :math:`L_V = \sum_i \ell_i / V` (paper eq. 2), um^-2.
+
+        :math:`\ell_i` is the length of cell axis *i* in tissue (sinus crossings excluded: the
+        micrographs show no cell there) inside ``box_um`` (default: the block), V that box's volume.
+        """
+        lengths = self.tissue_lengths_um(box_um)
+        if box_um is None:
+            vol = self.volume_um3
+        else:
+            vol = float(np.prod(np.diff(np.asarray(box_um, dtype=float), axis=1)))
+        return float(lengths.sum() / vol)
 
     def truth(self) -> dict:
         """The ground truth as a JSON-serialisable dict."""
@@ -209,7 +241,7 @@ class TissuePhantom:
                 "cavity_fraction": o.cavity_fraction,
             },
             "length_density_per_um2": self.length_density(),
-            "total_length_um": float(self.lengths_um.sum()),
+            "total_tissue_length_um": float(self.tissue_lengths_um().sum()),
             "volume_um3": self.volume_um3,
             "axes_xyz": [list(map(float, a)) for a in o.axes],
             "weights": list(map(float, o.weights)),
@@ -233,16 +265,13 @@ class TissuePhantom:
 def sample_watson_axes(mode, kappa: float, size: int, *, rng=None) -> np.ndarray:
     r"""Draw ``size`` unit axes from a bipolar Watson distribution about ``mode``.
 
-    .. math:: f(\mathbf x) \propto \exp\{\kappa (\boldsymbol\mu \cdot \mathbf x)^2\},\qquad \kappa
-        > 0.
+    .. math:: f(\mathbf x) \propto \exp\{\kappa (\boldsymbol\mu \cdot \mathbf x)^2\},\qquad \kappa >
+    0.
 
-    The cosine :math:`t = |\boldsymbol\mu\cdot\mathbf x|` has density :math:`\propto e^{\kappa
-    t^2}` on [0, 1]; it is
-    drawn by inverting its tabulated CDF (exact up to the 4097-point table), the azimuth about the
-    mode uniformly
-    (Fisher, Lewis & Embleton 1987, Statistical analysis of spherical data, Section 3.6). The sign
-    of each axis is
-    random (axes, not vectors).
+    The cosine :math:`t = |\boldsymbol\mu\cdot\mathbf x|` has density :math:`\propto e^{\kappa t^2}`
+    on [0, 1]; it is drawn by inverting its tabulated CDF (exact up to the 4097-point table), the
+    azimuth about the mode uniformly (Fisher, Lewis & Embleton 1987, Statistical analysis of
+    spherical data, Section 3.6). The sign of each axis is random (axes, not vectors).
 
     Returns
     -------
@@ -270,8 +299,7 @@ def sample_watson_axes(mode, kappa: float, size: int, *, rng=None) -> np.ndarray
 
 
 def clip_segment_to_box(p0, p1, upper) -> np.ndarray | None:
-    """Clip the segment ``p0 -> p1`` to the box ``[0, upper]`` (Liang-Barsky); ``None`` if it
-    misses the box."""
+    """Clip the segment ``p0 -> p1`` to the box ``[0, upper]`` (Liang-Barsky); None if it misses."""
     p0, p1, upper = (np.asarray(v, dtype=float) for v in (p0, p1, upper))
     d = p1 - p0
     t0, t1 = 0.0, 1.0
@@ -314,22 +342,17 @@ def _ellipsoid_voxels(centre, axis, a, b, shape, voxel):
 def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePhantom:
     r"""Generate a tissue block with known volume fractions and cell axes.
 
-    Cells are placed by random sequential adsorption: a candidate (centre uniform in the block
-    dilated by half a
-    cell length, axis from the Watson mixture) is accepted when at most ``max_overlap`` of its
-    voxels fall in
-    earlier cells dilated by ``gap_um``; accepted voxels not yet taken get its id. Placement stops
-    when the SMC
-    voxels reach the target fraction of the whole block,
+    1. Cavities (haemocoelic sinuses) are the voxels with the highest values of a Gaussian-filtered
+       white-noise field (sd ``cavity_scale_um``), exactly ``cavity_fraction`` of the block.
+    2. Cells are placed by random sequential adsorption: a candidate (centre uniform in the block
+       dilated by half a cell length, axis from the Watson mixture) is accepted when at most
+       ``max_overlap`` of its voxels fall in earlier cells dilated by ``gap_um``; its voxels not
+       yet taken get its id. Sinuses cut through the cells (cell voxels there stay cavity).
+       Placement stops when the SMC voxels reach the target fraction of the tissue,
 
-    .. math:: V_V(\mathrm{SMC}, \mathrm{block}) = V_V(\mathrm{SMC}, \mathrm{tissue})\,(1 -
-        V_V(\mathrm{cavity})).
+       .. math:: N(\mathrm{SMC}) = V_V(\mathrm{SMC}, \mathrm{tissue})\, N(\mathrm{tissue}).
 
-    Cavities are then the voxels with the highest values of a Gaussian-filtered white-noise field
-    among the
-    voxels farther than ``sheath_um`` from any cell, as many as the cavity fraction asks; the rest
-    is ECM. The voxel
-    fractions therefore hit the targets to within one cell's volume.
+    3. The rest is ECM (collagen), so the voxel fractions hit the targets to within one cell.
 
     Parameters
     ----------
@@ -342,12 +365,11 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
 
     Raises
     ------
-    ValidationError if the target SMC fraction cannot be reached (too dense for the overlap
-    tolerance) or the
-    cavities do not fit into the space left by the cells.
+    ValidationError if the target SMC fraction cannot be reached within ``max_attempts``
+    candidates (too dense for the overlap tolerance).
     """
     o = options if options is not None else PhantomOptions()
-    seed = rng if isinstance(rng, int | np.integer) else None
+    seed = int(rng) if isinstance(rng, int | np.integer) else None
     rng = np.random.default_rng(rng)
     shape = o.shape
     v = o.voxel_um
@@ -355,8 +377,15 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
     a, b = o.cell_length_um / 2, o.cell_radius_um
     axes = np.array([np.asarray(x, float) / np.linalg.norm(x) for x in o.axes])
     weights = np.asarray(o.weights, dtype=float)
-    target_smc = o.smc_fraction * (1 - o.cavity_fraction)
-    n_target = target_smc * np.prod(shape)
+
+    cavity = np.zeros(shape, dtype=bool)
+    n_cav = int(round(o.cavity_fraction * np.prod(shape)))
+    if n_cav > 0:
+        field_ = ndimage.gaussian_filter(
+            rng.standard_normal(shape), np.asarray(o.cavity_scale_um) / v, mode="wrap"
+        ).ravel()
+        cavity.ravel()[np.argpartition(field_, field_.size - n_cav)[field_.size - n_cav :]] = True
+    n_target = o.smc_fraction * (np.prod(shape) - n_cav)
 
     cell_ids = np.zeros(shape, dtype=np.int32)
     blocked = np.zeros(shape, dtype=bool)  # cells dilated by the gap
@@ -372,9 +401,8 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
                 "smc_fraction",
                 o.smc_fraction,
                 f"a density reachable with max_overlap={o.max_overlap}, gap_um={o.gap_um}",
-                f"reached {n_smc / np.prod(shape) / (1 - o.cavity_fraction):.3f} of the tissue
-                after "
-                f"{attempts} attempts; raise max_overlap or lower gap_um",
+                f"reached {n_smc / (np.prod(shape) - n_cav):.3f} of the tissue after "
+                f"{attempts} candidates; raise max_overlap or lower gap_um",
             )
         comp = rng.choice(len(weights), size=batch, p=weights)
         dirs = np.empty((batch, 3))
@@ -385,26 +413,29 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
         centres = rng.uniform(size=(batch, 3)) * (upper + 2 * a) - a
         for j in range(batch):
             attempts += 1
-            d = dirs[j] * np.sign(dirs[j][2] if dirs[j][2] != 0 else 1.0)
+            d = dirs[j] * (-1.0 if dirs[j][2] < 0 else 1.0)
             seg = clip_segment_to_box(centres[j] - a * d, centres[j] + a * d, upper)
             if seg is None:
                 continue
             vox = _ellipsoid_voxels(centres[j], d, a, b, shape, v)
             if vox is None or vox[0].size == 0:
                 continue
-            if blocked[vox].mean() > o.max_overlap:
+            in_tissue = ~cavity[vox]
+            if in_tissue.mean() < 1 - o.max_in_cavity:
                 continue
-            free = cell_ids[vox] == 0
+            if (blocked[vox] & in_tissue).mean() > o.max_overlap:
+                continue
+            free = (cell_ids[vox] == 0) & in_tissue
             idx = tuple(x[free] for x in vox)
             cell_ids[idx] = len(segments) + 1
             n_smc += int(free.sum())
             if gap_vox > 0:
-                sub = np.zeros(shape, dtype=bool)
-                sub[vox] = True
                 lo = [max(0, int(x.min()) - gap_vox) for x in vox]
-                hi = [min(s, int(x.max()) + gap_vox + 1) for x, s in zip(vox, shape)]
-                box = tuple(slice(l_, h_) for l_, h_ in zip(lo, hi))
-                blocked[box] |= ndimage.binary_dilation(sub[box], ball, iterations=gap_vox)
+                hi = [min(s, int(x.max()) + gap_vox + 1) for x, s in zip(vox, shape, strict=True)]
+                box = tuple(slice(l_, h_) for l_, h_ in zip(lo, hi, strict=True))
+                sub = np.zeros([h_ - l_ for l_, h_ in zip(lo, hi, strict=True)], dtype=bool)
+                sub[tuple(x - l_ for x, l_ in zip(vox, lo, strict=True))] = True
+                blocked[box] |= ndimage.binary_dilation(sub, ball, iterations=gap_vox)
             else:
                 blocked[vox] = True
             segments.append(seg)
@@ -415,29 +446,7 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
 
     components = np.full(shape, ECM, dtype=np.uint8)
     components[cell_ids > 0] = SMC
-    n_cav = int(round(o.cavity_fraction * np.prod(shape)))
-    if n_cav > 0:
-        if o.sheath_um > 0:
-            dist = ndimage.distance_transform_edt(cell_ids == 0, sampling=v)
-            candidates = dist > o.sheath_um
-        else:
-            candidates = cell_ids == 0
-        if candidates.sum() < n_cav:
-            raise ValidationError(
-                "cavity_fraction",
-                o.cavity_fraction,
-                f"at most {candidates.mean():.3f} (the space farther than sheath_um from the
-                cells)",
-                "lower smc_fraction, cavity_fraction or sheath_um",
-            )
-        field_ = ndimage.gaussian_filter(
-            rng.standard_normal(shape), o.cavity_scale_um / v, mode="wrap"
-        )
-        vals = field_[candidates]
-        thr = np.partition(vals, vals.size - n_cav)[vals.size - n_cav]
-        cav = candidates & (field_ >= thr)
-        components[cav] = CAVITY
-
+    components[cavity] = CAVITY
     return TissuePhantom(
         components=components,
         cell_ids=cell_ids,

@@ -1,13 +1,16 @@
-"""Rigid registration of serial micrographs: rotation from the log-polar FFT magnitude, translation by phase
-correlation, a local refinement of the angle, and the chain of consecutive pairs composed into one frame.
+"""Rigid registration of serial micrographs.
 
-Transforms are 3 x 3 homogeneous matrices on pixel coordinates ``(x, y) = (column, row)``. A transform ``T_i`` of
-a stack maps reference (section 0) coordinates to the coordinates where the same tissue appears in section ``i``,
-so the registered section is ``R_i(p) = I_i(T_i(p))`` (skimage ``warp(I_i, T_i)``).
+Rotation from the log-polar FFT magnitude, translation by phase correlation, a local refinement of
+the angle, and the chain of consecutive pairs composed into one frame.
 
-References: Reddy & Chatterji 1996, IEEE Trans. Image Process. 5:1266, doi:10.1109/83.506761 (rotation from
-the log-polar Fourier magnitude); Guizar-Sicairos, Thurman & Fienup 2008, Opt. Lett. 33:156,
-doi:10.1364/OL.33.000156 (sub-pixel phase correlation, skimage ``phase_cross_correlation``).
+Transforms are 3 x 3 homogeneous matrices on pixel coordinates ``(x, y) = (column, row)``. A
+transform ``T_i`` of a stack maps reference (section 0) coordinates to the coordinates where the
+same tissue appears in section ``i``, so the registered section is ``R_i(p) = I_i(T_i(p))`` (skimage
+``warp(I_i, T_i)``).
+
+References: Reddy & Chatterji 1996, IEEE Trans. Image Process. 5:1266, doi:10.1109/83.506761
+(rotation from the log-polar Fourier magnitude); Guizar-Sicairos, Thurman & Fienup 2008, Opt. Lett.
+33:156, doi:10.1364/OL.33.000156 (sub-pixel phase correlation, skimage ``phase_cross_correlation``).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
+from scipy import ndimage, optimize
 from skimage.color import rgb2gray
 from skimage.filters import difference_of_gaussians, window
 from skimage.registration import phase_cross_correlation
@@ -41,8 +44,10 @@ class RegisteredStack:
 
     Attributes
     ----------
-    images : (n, H, W, ...) registered images (float, in the input's range), NaN-free (edges extended).
-    transforms : (n, 3, 3) reference -> section matrices; pairwise : (n - 1, 3) consecutive estimates
+    images : (n, H, W, ...) registered images (float, in the input's range), NaN-free (edges
+        extended).
+    transforms : (n, 3, 3) reference -> section matrices; pairwise : (n - 1, 3) consecutive
+        estimates
         (angle_deg, tx_px, ty_px) of section i+1 relative to section i.
     valid : (H, W) bool, reference pixels seen by every section (the common field to analyse).
     """
@@ -68,11 +73,12 @@ def estimate_rotation_logpolar(fixed, moving, *, upsample_factor: int = 20) -> f
     r"""Rotation angle (degrees) of ``moving`` relative to ``fixed`` from their Fourier magnitudes.
 
     The magnitude of the Fourier transform ignores translation and rotates with the image; in polar
-    coordinates :math:`(\log r, \theta)` the rotation becomes a shift along :math:`\theta`, found by phase
-    correlation (Reddy & Chatterji 1996). The images are band-passed (difference of Gaussians, 1-8 px) and
-    Hann-windowed first. The angle is defined modulo 180 degrees (the magnitude is centro-symmetric) and returned
-    in (-90, 90]; the sign convention is that of :func:`estimate_rigid` (positive: ``moving`` is ``fixed``
-    turned by +angle in (x, y) = (column, row) coordinates).
+    coordinates :math:`(\log r, \theta)` the rotation becomes a shift along :math:`\theta`, found by
+    phase correlation (Reddy & Chatterji 1996). The images are band-passed (difference of Gaussians,
+    1-8 px) and Hann-windowed first. The angle is defined modulo 180 degrees (the magnitude is
+    centro-symmetric) and returned in (-90, 90]; the sign convention is that of
+    :func:`estimate_rigid` (positive: ``moving`` is ``fixed`` turned by +angle in (x, y) = (column,
+    row) coordinates).
     """
     f, m = _gray(fixed), _gray(moving)
     if f.shape != m.shape:
@@ -84,55 +90,53 @@ def estimate_rotation_logpolar(fixed, moving, *, upsample_factor: int = 20) -> f
         spectra.append(np.abs(np.fft.fftshift(np.fft.fft2(band))))
     radius = min(f.shape) // 2
     shape = (360, radius)
-    polar = [
-        warp_polar(s, radius=radius, output_shape=shape, scaling="log", order=1) for s in spectra
-    ]
+    polar = [warp_polar(s, radius=radius, output_shape=shape, scaling="log", order=1) for s in spectra]
     polar = [p[:180] for p in polar]  # half turn: the magnitude is centro-symmetric
-    shift, _, _ = phase_cross_correlation(
-        polar[0], polar[1], upsample_factor=upsample_factor, normalization=None
-    )
+    shift, _, _ = phase_cross_correlation(polar[0], polar[1], upsample_factor=upsample_factor, normalization=None)
     angle = -float(shift[0])  # one row = one degree
     angle = (angle + 90.0) % 180.0 - 90.0
     return angle
 
 
 def _translation(fixed, moving_aligned, upsample_factor):
-    shift, _, _ = phase_cross_correlation(
-        fixed, moving_aligned, upsample_factor=upsample_factor, normalization=None
-    )
+    shift, _, _ = phase_cross_correlation(fixed, moving_aligned, upsample_factor=upsample_factor, normalization=None)
     return shift  # (dy, dx): moving_aligned shifted by it matches fixed
 
 
-def _score(fixed, moving, angle_deg, upsample_factor, centre, inner):
-    """NCC of fixed with moving sampled through the best transform for this angle, and that transform."""
+def _ncc(a: np.ndarray, b: np.ndarray) -> float:
+    a, b = a - a.mean(), b - b.mean()
+    return float((a * b).sum() / np.sqrt((a * a).sum() * (b * b).sum() + 1e-300))
+
+
+def _coarse(fixed, moving, angle_deg, upsample_factor, centre, inner):
+    """Best transform at a fixed angle (translation by phase correlation) and its NCC."""
     rot = rigid_matrix(angle_deg, 0.0, 0.0, centre)
     turned = warp(moving, EuclideanTransform(matrix=rot), order=1, mode="edge")
     dy, dx = _translation(fixed, turned, upsample_factor)
     # turned(p) = moving(rot p); shifted(p) = turned(p - d) = moving(rot (p - d))
     M = rot @ rigid_matrix(0.0, -dx, -dy, centre)
     aligned = warp(moving, EuclideanTransform(matrix=M), order=1, mode="edge")
-    a, b = fixed[inner], aligned[inner]
-    a, b = a - a.mean(), b - b.mean()
-    ncc = float((a * b).sum() / np.sqrt((a * a).sum() * (b * b).sum() + 1e-300))
-    return ncc, M
+    return _ncc(fixed[inner], aligned[inner]), M
 
 
 def estimate_rigid(
     fixed,
     moving,
     *,
-    max_rotation_deg: float = 10.0,
-    refine_deg: float = 1.5,
+    max_rotation_deg: float = 6.0,
+    angle_step_deg: float = 1.0,
+    smooth_px: float = 1.0,
     upsample_factor: int = 20,
 ) -> np.ndarray:
     r"""Rigid transform ``A`` (3 x 3, on (x, y) pixel coordinates) with ``moving(A q) ~ fixed(q)``.
 
-    1. coarse angle from the log-polar Fourier magnitude (:func:`estimate_rotation_logpolar`), discarded if
-       larger than ``max_rotation_deg`` (then 0 is the start);
-    2. for a trial angle the moving image is turned back and the translation found by sub-pixel phase
-       correlation (``upsample_factor``, Guizar-Sicairos et al. 2008);
-    3. the angle is refined within +-``refine_deg`` by maximising the normalised cross-correlation of the
-       aligned images on the central field (bounded Brent search).
+    1. Both images are turned to gray, smoothed (Gaussian, ``smooth_px``) and centred.
+    2. Coarse search: for each trial angle (a grid of step ``angle_step_deg`` over
+       +-``max_rotation_deg`` plus the log-polar Fourier estimate of
+       :func:`estimate_rotation_logpolar`) the moving image is turned back and the translation
+       found by sub-pixel phase correlation (``upsample_factor``, Guizar-Sicairos et al. 2008).
+    3. The best trial is refined in (angle, tx, ty) by maximising the normalised
+       cross-correlation (NCC) of the aligned images on the central field (Nelder-Mead).
 
     Parameters
     ----------
@@ -140,36 +144,51 @@ def estimate_rigid(
 
     Returns
     -------
-    (3, 3) ndarray: :math:`A(\mathbf q) = R(\theta)(\mathbf q - \mathbf c) + \mathbf c + \mathbf t`,
-    :math:`\mathbf c` the image centre.
+    (3, 3) ndarray: :math:`A(\mathbf q) = R(\theta)(\mathbf q - \mathbf c) + \mathbf c +
+    \mathbf t`, :math:`\mathbf c` the image centre.
     """
     f, m = _gray(fixed), _gray(moving)
     if f.shape != m.shape:
         raise ValidationError("moving", f"shape {m.shape}", f"the shape of fixed, {f.shape}")
     max_rotation_deg = check_positive("max_rotation_deg", max_rotation_deg, allow_zero=True)
+    angle_step_deg = check_positive("angle_step_deg", angle_step_deg)
+    smooth_px = check_positive("smooth_px", smooth_px, allow_zero=True)
+    if smooth_px > 0:
+        f, m = ndimage.gaussian_filter(f, smooth_px), ndimage.gaussian_filter(m, smooth_px)
+    f, m = f - f.mean(), m - m.mean()
     H, W = f.shape
     centre = ((W - 1) / 2, (H - 1) / 2)
     mh, mw = max(1, H // 8), max(1, W // 8)
     inner = (slice(mh, H - mh), slice(mw, W - mw))
-    start = estimate_rotation_logpolar(f, m, upsample_factor=upsample_factor)
-    if abs(start) > max_rotation_deg:
-        start = 0.0
-    if refine_deg <= 0:
-        return _score(f, m, start, upsample_factor, centre, inner)[1]
-    res = optimize.minimize_scalar(
-        lambda a: -_score(f, m, a, upsample_factor, centre, inner)[0],
-        bounds=(start - refine_deg, start + refine_deg),
-        method="bounded",
-        options={"xatol": 0.01},
+    n_half = int(np.floor(max_rotation_deg / angle_step_deg))
+    trials = list(np.arange(-n_half, n_half + 1) * angle_step_deg)
+    lp = estimate_rotation_logpolar(f, m, upsample_factor=upsample_factor)
+    if abs(lp) <= max_rotation_deg:
+        trials.append(lp)
+    scored = [_coarse(f, m, a, upsample_factor, centre, inner) for a in trials]
+    best = max(range(len(scored)), key=lambda k: scored[k][0])
+    x0 = _params(scored[best][1], f.shape)
+
+    def cost(x):
+        M = rigid_matrix(x[0], x[1], x[2], centre)
+        aligned = warp(m, EuclideanTransform(matrix=M), order=1, mode="edge")
+        return -_ncc(f[inner], aligned[inner])
+
+    simplex = x0 + np.array([[0, 0, 0], [0.5, 0, 0], [0, 0.5, 0], [0, 0, 0.5]])
+    res = optimize.minimize(
+        cost,
+        x0,
+        method="Nelder-Mead",
+        options={"initial_simplex": simplex, "xatol": 0.005, "fatol": 1e-7, "maxiter": 400},
     )
-    best = res.x if -res.fun >= _score(f, m, start, upsample_factor, centre, inner)[0] else start
-    return _score(f, m, best, upsample_factor, centre, inner)[1]
+    x = res.x if res.fun <= cost(x0) else x0
+    return rigid_matrix(x[0], x[1], x[2], centre)
 
 
 def apply_transforms(images: np.ndarray, transforms: np.ndarray, *, order: int = 1) -> np.ndarray:
     """Warp every section into the reference frame: ``R_i(p) = I_i(T_i p)`` (edges extended)."""
     out = np.empty(images.shape, dtype=float)
-    for i, (img, T) in enumerate(zip(images, transforms)):
+    for i, (img, T) in enumerate(zip(images, transforms, strict=True)):
         out[i] = warp(
             np.asarray(img, dtype=float),
             EuclideanTransform(matrix=T),
@@ -183,14 +202,15 @@ def apply_transforms(images: np.ndarray, transforms: np.ndarray, *, order: int =
 def register_stack(
     images: np.ndarray,
     *,
-    max_rotation_deg: float = 10.0,
+    max_rotation_deg: float = 6.0,
     upsample_factor: int = 20,
     progress: Callable[[int], None] | None = None,
 ) -> RegisteredStack:
     r"""Register a stack of serial sections to its first section.
 
     Consecutive pairs are registered (neighbours share the most structure) and composed,
-    :math:`T_i = A_{i-1,i} T_{i-1}`, :math:`T_0 = I`. The valid field is where every section has data.
+    :math:`T_i = A_{i-1,i} T_{i-1}`, :math:`T_0 = I`. The valid field is where every section has
+    data.
 
     Parameters
     ----------
@@ -210,9 +230,7 @@ def register_stack(
     T[0] = np.eye(3)
     pairwise = np.empty((max(n - 1, 0), 3))
     for i in range(1, n):
-        A = estimate_rigid(
-            gray[i - 1], gray[i], max_rotation_deg=max_rotation_deg, upsample_factor=upsample_factor
-        )
+        A = estimate_rigid(gray[i - 1], gray[i], max_rotation_deg=max_rotation_deg, upsample_factor=upsample_factor)
         pairwise[i - 1] = _params(A, gray[i].shape)
         T[i] = A @ T[i - 1]
         if progress is not None:
@@ -238,13 +256,14 @@ def _params(A: np.ndarray, shape) -> np.ndarray:
 
 
 def displacement_error_px(estimated: np.ndarray, true: np.ndarray, shape, *, mask=None) -> np.ndarray:
-    r"""Mean displacement (px) between estimated and true transforms over the field of an image of ``shape``.
+    r"""Mean displacement (px) between estimated and true transforms over an image field.
 
     .. math:: e_i = \operatorname{mean}_{\mathbf p} \lVert \hat T_i \mathbf p - T_i \mathbf p \rVert
 
     Parameters
     ----------
-    estimated, true : (n, 3, 3) matrices, or (n, 3) rows (angle_deg, tx_px, ty_px) about the image centre.
+    estimated, true : (n, 3, 3) matrices, or (n, 3) rows (angle_deg, tx_px, ty_px) about the image
+        centre.
     mask : optional (H, W) bool field to average over.
 
     Returns
@@ -264,5 +283,4 @@ def displacement_error_px(estimated: np.ndarray, true: np.ndarray, shape, *, mas
     yy, xx = np.mgrid[0:H, 0:W]
     sel = np.ones((H, W), dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
     pts = np.stack([xx[sel], yy[sel], np.ones(sel.sum())])
-    return np.array([np.linalg.norm((e @ pts - t @ pts)[:2], axis=0).mean() for e, t in zip(E, Tt)])
-
+    return np.array([np.linalg.norm((e @ pts - t @ pts)[:2], axis=0).mean() for e, t in zip(E, Tt, strict=True)])

@@ -1,28 +1,22 @@
-"""Serial sections of a tissue phantom rendered as Mallory-trichrome micrographs, with
-misregistration.
+"""Serial sections of a phantom rendered as misregistered Mallory-trichrome micrographs.
 
 Each section is the mid-plane of a slab of thickness ``thickness_um`` cut perpendicular to the
-chosen axis. Its
-colour follows Beer-Lambert absorption of two stains (acid fuchsin staining the muscle red, aniline
-blue the
-collagen), so that colour deconvolution is the matching inverse model:
+chosen axis. Its colour follows Beer-Lambert absorption of two stains (acid fuchsin staining the
+muscle red, aniline blue the collagen), so that colour deconvolution is the matching inverse model:
 
 .. math:: I_c(\\mathbf p) = \\exp\\bigl(-\\sum_s c_s(\\mathbf p)\\, \\mathrm{OD}_{s,c} -
-    \\mathrm{OD}_{0,c}\\bigr),
+\\mathrm{OD}_{0,c}\\bigr),
           \\qquad \\mathrm{OD}_{s,c} = -\\ln \\mathrm{RGB}_{s,c},
 
 where the stain amounts :math:`c_s` are 1 on their component times a section factor (log-normal,
-section-to-section
-stain variability) times a smooth spatial texture. The image is then blurred (Gaussian point-spread
-function),
-moved by a rigid misregistration (rotation about the field centre, then a shift), cropped to the
-camera field
-and given Gaussian noise (Ruifrok & Johnston 2001, Anal. Quant. Cytol. Histol. 23:291 for the stain
-model).
+section-to-section stain variability) times a smooth spatial texture. The image is then blurred
+(Gaussian point-spread function), moved by a rigid misregistration (rotation about the field centre,
+then a shift), cropped to the camera field and given Gaussian noise (Ruifrok & Johnston 2001, Anal.
+Quant. Cytol. Histol. 23:291 for the stain model).
 
 Section 0 is the reference: its transform is the identity. Transforms map reference-field pixel
-coordinates
-``(x, y) = (column, row)`` to the pixel where the same tissue point appears in section ``i``:
+coordinates ``(x, y) = (column, row)`` to the pixel where the same tissue point appears in section
+``i``:
 
 .. math:: A_i(\\mathbf q) = R(\\theta_i)(\\mathbf q - \\mathbf c) + \\mathbf c + \\mathbf t_i .
 """
@@ -145,8 +139,7 @@ class RenderedStack:
 
 
 def rigid_matrix(angle_deg: float, tx: float, ty: float, centre) -> np.ndarray:
-    """3 x 3 homogeneous matrix of ``q -> R(angle)(q - centre) + centre + t`` on (x, y) pixel
-    coordinates."""
+    """3 x 3 matrix of ``q -> R(angle)(q - centre) + centre + t`` on (x, y) pixel coordinates."""
     th = np.deg2rad(angle_deg)
     c, s = np.cos(th), np.sin(th)
     R = np.array([[c, -s], [s, c]])

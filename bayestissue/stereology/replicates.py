@@ -165,7 +165,8 @@ def fraction_replicates(
     """
     Q = counts.reference_counts()
     if kind == "parametric":
-        draws = parametric_fraction_bootstrap(Q, n_boot=n_boot, rng=rng, **ce_kwargs)
+        kw = {**counts.ce_kwargs(), **ce_kwargs}
+        draws = parametric_fraction_bootstrap(Q, n_boot=n_boot, rng=rng, **kw)
     elif kind == "cluster":
         if counts.block is None:
             raise ValidationError("block", None, "a 'block' column for the cluster bootstrap")

@@ -148,7 +148,7 @@ def preferential_directions(
 
     Returns
     -------
-    list of k dicts: ``rank``, ``band``, ``meridian`` (of the first cell), ``n_cells`` merged,
+    list of k dicts, ranked by merged length: ``rank``, ``band``, ``meridian`` (of the first cell), ``n_cells`` merged,
     ``length_um``,
     ``share`` (of the total length), ``cell_azimuth`` / ``cell_elevation`` (centre of the first
     cell, degrees),
@@ -187,7 +187,9 @@ def preferential_directions(
             :, 0
         ]
         c["length_um"] = float(rose.weights[i].sum())
-    for c in chosen:
+    chosen.sort(key=lambda c: -c["length_um"])  # rank by the (merged) length
+    for r, c in enumerate(chosen, start=1):
+        c["rank"] = r
         c.pop("_idx")
         c["share"] = c["length_um"] / total
         c["vector"] = to_upper_hemisphere(c["vector"])

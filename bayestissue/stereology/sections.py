@@ -350,8 +350,7 @@ def fraction_covariance(
         G[..., idx, idx] = diag
     else:
         G = a_mat * G
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / sums
+    inv = np.divide(1.0, sums, out=np.zeros_like(sums), where=sums > 0)  # absent component: 0
     R = G * inv[..., :, None] * inv[..., None, :]
     rel = (
         R[..., :K, :K]
@@ -378,9 +377,8 @@ def ratio_ce(Q, P, **kwargs) -> np.ndarray:
     Parameters
     ----------
     Q : (..., n) points on the phase; P : (..., n) points on the reference space (``Q <= P``).
-    kwargs : ``smoothness``, ``nugget`` (bool), ``shape_factors`` ((phase, reference)),
-        ``n_profiles``,
-        as :func:`fraction_covariance`.
+    kwargs : ``smoothness``, ``nugget`` (bool), ``shape_factors`` and ``n_profiles`` (each a scalar
+        or (phase, reference)), as :func:`fraction_covariance`.
     """
     Q = _check_counts("Q", Q)
     P = _check_counts("P", P)
@@ -394,6 +392,10 @@ def ratio_ce(Q, P, **kwargs) -> np.ndarray:
         )
     sf = kwargs.pop("shape_factors", DISC_SHAPE_FACTOR)
     sf = np.broadcast_to(np.asarray(sf, dtype=float), (2,))
+    npf = kwargs.pop("n_profiles", None)
+    if npf is not None:
+        npf = np.broadcast_to(np.asarray(npf, dtype=float), (2,))
+        kwargs["n_profiles"] = (npf[0], npf[0], npf[1])
     counts = np.stack([Q, P - Q], axis=-1)
     # the complement R = P - Q only enters through G_PP and G_QP; its own shape factor is not used
     cov = fraction_covariance(counts, shape_factors=(sf[0], sf[0], sf[1]), **kwargs)
@@ -449,6 +451,9 @@ class PointCounts:
     excluded : names excluded from the reference space (cavities, "other").
     grid_spacing_um : optional point-grid spacing.
     block : optional (n,) labels of independent units (blocks, animals) for the cluster bootstrap.
+    shape_factor : profile shape factor b / sqrt(a) for the nugget (default a disc, 3.545).
+    profiles_per_section : profiles of each phase per section for the nugget (default 1: one profile per
+        section, Gundersen et al. 1999); a fragmented meshwork has many.
     """
 
     section: np.ndarray
@@ -457,6 +462,8 @@ class PointCounts:
     excluded: tuple[str, ...] = ()
     grid_spacing_um: float | None = None
     block: np.ndarray | None = field(default=None)
+    shape_factor: float = DISC_SHAPE_FACTOR
+    profiles_per_section: float | None = None
 
     def __post_init__(self):
         counts = _check_counts("counts", self.counts)
@@ -469,6 +476,8 @@ class PointCounts:
         section = np.asarray(self.section)
         if section.shape != (counts.shape[0],):
             raise ValidationError("section", f"shape {section.shape}", f"({counts.shape[0]},)")
+        if len(np.unique(section)) != section.size:
+            raise ValidationError("section", section.tolist(), "distinct section positions")
         if len(set(self.components)) != len(self.components):
             raise ValidationError("components", self.components, "distinct names")
         for name in self.excluded:
@@ -480,12 +489,34 @@ class PointCounts:
             )
         if self.grid_spacing_um is not None:
             check_positive("grid_spacing_um", self.grid_spacing_um)
+        check_positive("shape_factor", self.shape_factor)
+        if self.profiles_per_section is not None:
+            check_positive("profiles_per_section", self.profiles_per_section)
         if self.block is not None and np.asarray(self.block).shape != section.shape:
-            raise ValidationError(
-                "block", f"shape {np.asarray(self.block).shape}", f"{section.shape}"
-            )
+            raise ValidationError("block", f"shape {np.asarray(self.block).shape}", f"{section.shape}")
         object.__setattr__(self, "counts", counts)
         object.__setattr__(self, "section", section)
+
+    @classmethod
+    def from_file(cls, path) -> PointCounts:
+        """Read a point-count table (:func:`bayestissue.io.stereology_files.read_point_counts`)."""
+        from bayestissue.io.stereology_files import read_point_counts
+
+        d = read_point_counts(path)
+        kw = {}
+        if d["nugget_shape_factor"] is not None:
+            kw["shape_factor"] = d["nugget_shape_factor"]
+        if d["nugget_profiles_per_section"] is not None:
+            kw["profiles_per_section"] = d["nugget_profiles_per_section"]
+        return cls(
+            d["section"],
+            d["counts"],
+            d["components"],
+            d["excluded"],
+            grid_spacing_um=d["grid_spacing_um"],
+            block=d["block"],
+            **kw,
+        )
 
     @property
     def reference_components(self) -> tuple[str, ...]:
@@ -503,6 +534,16 @@ class PointCounts:
         order = np.argsort(self.section, kind="stable")
         return np.stack([self.column(c)[order] for c in self.reference_components], axis=1)
 
+    def ce_kwargs(self) -> dict:
+        """Nugget options for :func:`fraction_covariance` from ``shape_factor`` and
+        ``profiles_per_section`` (profiles = per-section count times the non-empty sections)."""
+        out = {"shape_factors": self.shape_factor}
+        if self.profiles_per_section is not None:
+            Q = self.reference_counts()
+            X = np.concatenate([Q, Q.sum(axis=1, keepdims=True)], axis=1)
+            out["n_profiles"] = self.profiles_per_section * np.count_nonzero(X, axis=0)
+        return out
+
     def volume_fractions(self) -> dict[str, float]:
         """Ratio estimates (paper eq. 1) of every reference component."""
         Q = self.reference_counts()
@@ -513,29 +554,36 @@ class PointCounts:
             )
         return {c: float(Q[:, j].sum() / tot) for j, c in enumerate(self.reference_components)}
 
-    def summary(self, *, shape_factor: float = DISC_SHAPE_FACTOR) -> dict[str, dict[str, float]]:
+    def summary(self) -> dict[str, dict[str, float]]:
         """V_V and every CE predictor per reference component (the table the CLI prints).
 
-        Keys per component: ``V_V``, ``CE_m0``, ``CE_m1``, ``CE_q_hat`` (all ratio form with
-        covariance and
-        nugget), ``q_hat``, ``CE_classic`` (independent units), ``CE_sum_m0`` / ``CE_sum_m1`` (of
-        the
-        component's point sum alone).
+        Keys per component: ``V_V``; ``CE_m0``, ``CE_m1``, ``CE_q_hat`` (ratio form with covariance and
+        nugget, :func:`fraction_covariance`); ``q_hat``; ``CE_classic`` (independent units, Cochran);
+        ``CE_sum_m0`` / ``CE_sum_m1`` (of the component's point sum alone).
         """
         Q = self.reference_counts()
         P = Q.sum(axis=1)
+        kw = self.ce_kwargs()
+        V = Q.sum(axis=0) / P.sum()
+        ce = {}
+        for key, sm in (("CE_m0", 0), ("CE_m1", 1), ("CE_q_hat", "q_hat")):
+            if sm == "q_hat" and len(P) < 5:
+                ce[key] = np.full(len(V), np.nan)
+                continue
+            cov = fraction_covariance(Q, smoothness=sm, **kw)
+            ce[key] = np.sqrt(np.clip(np.diag(cov), 0, None)) / V
+        nprof = kw.get("n_profiles")
         out = {}
         for j, c in enumerate(self.reference_components):
             q = Q[:, j]
-            r = {"V_V": float(q.sum() / P.sum())}
-            for key, sm in (("CE_m0", 0), ("CE_m1", 1), ("CE_q_hat", "q_hat")):
-                if sm == "q_hat" and len(P) < 5:
-                    r[key] = float("nan")
-                    continue
-                r[key] = float(ratio_ce(q, P, smoothness=sm, shape_factors=shape_factor))
+            r = {"V_V": float(V[j])}
+            r.update({k: float(v[j]) for k, v in ce.items()})
             r["q_hat"] = float(smoothness_q_hat(P)) if len(P) >= 5 else float("nan")
             r["CE_classic"] = float(classic_ratio_ce(q, P))
-            r["CE_sum_m0"] = float(ce_sum(q, smoothness=0, shape_factor=shape_factor))
-            r["CE_sum_m1"] = float(ce_sum(q, smoothness=1, shape_factor=shape_factor))
+            npj = None if nprof is None else nprof[j]
+            for m in (0, 1):
+                r[f"CE_sum_m{m}"] = float(
+                    ce_sum(q, smoothness=m, shape_factor=self.shape_factor, n_profiles=npj)
+                )
             out[c] = r
         return out

@@ -1,0 +1,7 @@
+"""``python -m bayestissue``: the command-line interface."""
+
+import sys
+
+from bayestissue.cli import main
+
+sys.exit(main())

@@ -1,0 +1,156 @@
+"""Assemble an arviz ``InferenceData`` from a posterior sample.
+
+Groups:
+
+* ``posterior``: the sampled parameters (natural units); one *chain* per walker, ensemble-major
+  (``constant_data.ensemble_of_chain`` maps chains to ensembles). R-hat over these chains is **not**
+  valid (walkers of one ensemble interact); use
+  :func:`bayestissue.inference.diagnostics.rhat_ensembles`.
+* ``sample_stats``: ``lp`` (unnormalised log-posterior, natural units) and ``lp_unconstrained`` (the
+  sampler's target, with the log-Jacobian).
+* ``log_likelihood``: pointwise log-likelihood per experiment (for ``az.loo``; for AR(1) noise these
+  are the conditional terms of the exact factorisation).
+* ``posterior_predictive``: a thinned subset of draws: ``<exp>`` with noise, ``<exp>_model``
+  without.
+* ``observed_data`` and ``constant_data`` (fixed parameters and inputs, bounds, least-squares
+  estimate).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping
+
+import numpy as np
+
+from bayestissue.inference.diagnostics import import_arviz
+from bayestissue.inference.likelihood import _tag
+from bayestissue.inference.sampling import PosteriorSample
+
+__all__ = ["to_inference_data"]
+
+
+def _numeric_inputs(inputs: Mapping) -> tuple[dict, dict]:
+    arrays, text = {}, {}
+    for k, v in inputs.items():
+        a = np.asarray(v)
+        if a.dtype.kind in "biuf" and a.size:
+            arrays[_tag(k)] = a.astype(float)
+        else:
+            text[f"fixed_input:{k}"] = str(v)
+    return arrays, text
+
+
+def to_inference_data(
+    sample: PosteriorSample,
+    *,
+    least_squares=None,
+    max_draws: int = 4000,
+    n_predictive: int = 400,
+    attrs: Mapping | None = None,
+    rng=None,
+):
+    """Build the ``InferenceData`` of a :class:`~bayestissue.inference.sampling.PosteriorSample`.
+
+    Parameters
+    ----------
+    sample : PosteriorSample
+    least_squares : LeastSquaresResult, optional (stored in ``constant_data``).
+    max_draws : cap on the total number of posterior draws kept (further thinning, evenly).
+    n_predictive : approximate number of draws in ``posterior_predictive``.
+    attrs : global attributes (provenance).
+    rng : seed or Generator for the predictive noise.
+    """
+    az = import_arviz()
+    rng = np.random.default_rng(rng)
+    problem = sample.problem
+    pars = problem.parameters
+    z = sample.kept_z()  # (E, D, W, P)
+    lpz = sample.kept_log_prob()  # (E, D, W)
+    n_ens, n_d, nw, ndim = z.shape
+    thin = max(1, math.ceil(n_ens * n_d * nw / max_draws))
+    z, lpz = z[:, ::-1][:, ::thin][:, ::-1], lpz[:, ::-1][:, ::thin][:, ::-1]
+    n_d = z.shape[1]
+    # chains = walkers, ensemble-major: (E, D, W, P) -> (E*W, D, P)
+    zc = z.transpose(0, 2, 1, 3).reshape(n_ens * nw, n_d, ndim)
+    lpzc = lpz.transpose(0, 2, 1).reshape(n_ens * nw, n_d)
+    flat_z = zc.reshape(-1, ndim)
+    theta = pars.from_unconstrained(flat_z)
+    n_chain = n_ens * nw
+    posterior = {name: theta[:, j].reshape(n_chain, n_d) for j, name in enumerate(problem.names)}
+    lp_nat = lpzc - pars.log_abs_det_jacobian(flat_z).reshape(n_chain, n_d)
+    sample_stats = {"lp": lp_nat, "lp_unconstrained": lpzc}
+    preds = problem.predict(theta)
+    ll = problem.log_likelihood_pointwise(theta, predictions=preds)
+    names = [_tag(e.name) for e in problem.experiments]
+    log_lik = {n: l.reshape(n_chain, n_d, -1) for n, l in zip(names, ll, strict=False)}
+    dims = {n: [f"time_{n}"] for n in names}
+    coords = {f"time_{n}": e.time_s for n, e in zip(names, problem.experiments, strict=False)}
+    # thinned posterior predictive: evenly spaced draws in every chain
+    k = max(1, min(n_d, round(n_predictive / n_chain)))
+    didx = np.unique(np.linspace(0, n_d - 1, k).round().astype(int))
+    sel = (np.arange(n_chain)[:, None] * n_d + didx[None, :]).ravel()
+    pp = {}
+    for i, (n, e) in enumerate(zip(names, problem.experiments, strict=False)):
+        mean = preds[i][sel]
+        nuis = problem.nuisance(theta[sel], i)
+        noisy = mean + e.noise.simulate(mean.shape[1], nuis, rng=rng)
+        pp[n] = noisy.reshape(n_chain, didx.size, -1)
+        pp[f"{n}_model"] = mean.reshape(n_chain, didx.size, -1)
+        dims[f"{n}_model"] = [f"time_{n}"]
+    observed = {n: e.observed for n, e in zip(names, problem.experiments, strict=False)}
+    arrays, text = _numeric_inputs(problem.material.fixed_inputs)
+    constant = {
+        "ensemble_of_chain": np.repeat(np.arange(n_ens), nw).astype(float),
+        "lower": pars.lower,
+        "upper": pars.upper,
+    }
+    for s in problem.material.specs:
+        if s.fixed:
+            constant[f"fixed_{s.name}"] = np.array([s.value])
+    for k_, v in arrays.items():
+        constant[f"input_{k_}"] = v
+    if least_squares is not None:
+        constant["least_squares_estimate"] = least_squares.x
+        constant["least_squares_sd"] = least_squares.sd
+    cdims = {
+        "lower": ["parameter"],
+        "upper": ["parameter"],
+        "ensemble_of_chain": ["chain"],
+        "least_squares_estimate": ["material_parameter"],
+        "least_squares_sd": ["material_parameter"],
+    }
+    coords.update(
+        parameter=list(problem.names),
+        material_parameter=list(problem.material.sampled_names),
+        chain=np.arange(n_chain),
+    )
+    with warnings.catch_warnings():  # "more chains than draws" is expected: chains are walkers
+        warnings.filterwarnings("ignore", message="More chains", category=UserWarning)
+        idata = az.from_dict(
+            posterior=posterior,
+            sample_stats=sample_stats,
+            log_likelihood=log_lik,
+            observed_data=observed,
+            constant_data=constant,
+            coords=coords,
+            dims={**dims, **cdims},
+        )
+        pp_ds = az.from_dict(posterior_predictive=pp, coords={**coords, "draw": didx}, dims=dims)
+    idata.extend(pp_ds)
+    info = {
+        "n_ensembles": n_ens,
+        "walkers_per_ensemble": nw,
+        "chains_are": "walkers (ensemble-major); R-hat over chains is not valid, see attrs rhat_*",
+        "thin_stored": thin,
+        "n_failed_forward": sample.n_failed,
+        "n_forward_evaluations": sample.n_evaluations,
+        "sampling_time_s": float(sample.time_s),
+        "ensemble_seeds": ",".join(str(s) for s in (sample.seeds or [])),
+        **text,
+        **dict(attrs or {}),
+    }
+    for group in idata.groups():
+        getattr(idata, group).attrs.update(info)
+    return idata

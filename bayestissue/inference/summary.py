@@ -1,0 +1,152 @@
+"""Summary table of a calibration: reference values, least squares, posterior, diagnostics and flags.
+
+One row per sampled parameter. Columns: the paper's Table 1 value and the generating value of a
+synthetic replica (when known), the least-squares estimate with its Wald interval, the posterior
+median, mean, sd and 90 % equal-tailed interval, bulk and tail ESS, between-ensemble R-hat, the
+*contraction*
+
+.. math:: c = 1 - \\frac{\\operatorname{Var}_{\\text{post}}(u)}{\\operatorname{Var}_{\\text{prior}}(u)}
+
+in the scaled box coordinates :math:`u` (Betancourt 2018, arXiv:1803.08393; :math:`c \\approx 0`:
+the data do not inform the parameter), and flags:
+
+* ``ls_outside_90``: least-squares estimate outside the posterior 90 % interval;
+* ``bound_active_lower`` / ``bound_active_upper``: active bound at the least-squares optimum;
+* ``piled_lower`` / ``piled_upper``: more than 10 % of the posterior mass in the outermost 2 % of
+  the scaled box (a posterior piled against a bound);
+* ``prior_dominated``: contraction below 0.3;
+* ``not_converged``: R-hat >= 1.01 or bulk/tail ESS < 400.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["summary_table", "table_markdown"]
+
+_EDGE, _PILE, _CONTRACT = 0.02, 0.10, 0.3
+
+
+def _ref_columns(problem, references) -> dict[str, np.ndarray]:
+    names = problem.names
+    mat_names = problem.material.names
+    cols = {}
+    for exp, refs in (references or {}).items():
+        suffix = "" if len(references) == 1 else f"_{exp}"
+        for kind in ("paper", "generating"):
+            if kind not in refs:
+                continue
+            vals = dict(zip(mat_names, np.asarray(refs[kind], dtype=float), strict=False))
+            if kind == "generating" and "noise_sd" in refs:
+                vals[f"sigma_{exp}"] = float(refs["noise_sd"])
+            cols[f"{kind}{suffix}"] = np.array([vals.get(n, np.nan) for n in names])
+    return cols
+
+
+def summary_table(problem, least_squares, sample=None, report=None, *, references=None) -> dict:
+    """Build the summary table.
+
+    Parameters
+    ----------
+    problem : CalibrationProblem
+    least_squares : LeastSquaresResult of the material parameters (the warm start).
+    sample : PosteriorSample or None (least-squares columns only).
+    report : ConvergenceReport or None.
+    references : mapping experiment -> {"paper": (11,), "generating": (11,), "noise_sd": float}.
+
+    Returns
+    -------
+    dict with ``columns`` (name -> 1-D array, for :func:`bayestissue.io.tables.write_table`) and
+    ``meta``.
+    """
+    names = problem.names
+    n = len(names)
+    m = problem.n_material
+    pars = problem.parameters
+    nan = np.full(n, np.nan)
+    cols: dict[str, np.ndarray] = {
+        "parameter": np.array(names, dtype=str),
+        "unit": np.array([s.unit for s in pars.sampled], dtype=str),
+        "prior": np.array([s.prior for s in pars.sampled], dtype=str),
+        "lower": pars.lower,
+        "upper": pars.upper,
+    }
+    cols.update(_ref_columns(problem, references))
+    nuis = problem.nuisance_estimate(least_squares.x)
+    ls = nuis.copy()
+    wl, wu = nan.copy(), nan.copy()
+    wl[:m], wu[:m] = least_squares.wald_lower, least_squares.wald_upper
+    cols["ls_estimate"] = ls
+    cols["wald_lower_90"], cols["wald_upper_90"] = wl, wu
+    flags = [[] for _ in range(n)]
+    for j, a in enumerate(least_squares.active):
+        if a:
+            flags[j].append("bound_active_lower" if a < 0 else "bound_active_upper")
+    meta = {
+        "parameters_fixed": ", ".join(f"{s.name}={s.value:g}" for s in problem.material.specs if s.fixed) or "none",
+        "least_squares_cost": f"{least_squares.cost:.6g}",
+        "least_squares_iterations": least_squares.nit,
+    }
+    if sample is not None:
+        flat = sample.flat()
+        q05, q50, q95 = np.quantile(flat, [0.05, 0.5, 0.95], axis=0)
+        cols.update(median=q50, mean=flat.mean(axis=0), sd=flat.std(axis=0, ddof=1), q05=q05, q95=q95)
+        u_post = pars.to_unit(flat)
+        u_prior = pars.to_unit(pars.sample_prior(20000, rng=0))
+        contraction = 1.0 - u_post.var(axis=0) / u_prior.var(axis=0)
+        cols["contraction"] = contraction
+        lo_mass = np.mean(u_post < _EDGE, axis=0)
+        hi_mass = np.mean(u_post > 1 - _EDGE, axis=0)
+        for j in range(n):
+            if not (q05[j] <= ls[j] <= q95[j]):
+                flags[j].append("ls_outside_90")
+            if lo_mass[j] > _PILE:
+                flags[j].append("piled_lower")
+            if hi_mass[j] > _PILE:
+                flags[j].append("piled_upper")
+            if contraction[j] < _CONTRACT:
+                flags[j].append("prior_dominated")
+    if report is not None:
+        cols.update(ess_bulk=report.ess_bulk, ess_tail=report.ess_tail, rhat=report.rhat)
+        for j in range(n):
+            if not (
+                report.rhat[j] < report.rhat_max
+                and report.ess_bulk[j] >= report.ess_min
+                and report.ess_tail[j] >= report.ess_min
+            ):
+                flags[j].append("not_converged")
+        meta["convergence"] = report.verdict()
+        meta["sampling_time_s"] = f"{report.time_s:.1f}"
+        meta["ess_per_s_min"] = f"{report.ess_per_second():.2f}"
+    cols["flags"] = np.array([";".join(f) or "-" for f in flags], dtype=str)
+    return {"columns": cols, "meta": meta}
+
+
+def _fmt(v) -> str:
+    if isinstance(v, str | np.str_):
+        return str(v)
+    v = float(v)
+    if math.isnan(v):
+        return ""
+    if v != 0 and (abs(v) >= 1e4 or abs(v) < 1e-3):
+        return f"{v:.3e}"
+    return f"{v:.4g}"
+
+
+def table_markdown(table: dict, *, title: str | None = None) -> str:
+    """Render :func:`summary_table` output as a Markdown table (meta entries as a bullet list below)."""
+    cols = table["columns"]
+    keys = [k for k in cols if k not in ("lower", "upper", "prior")]
+    lines = []
+    if title:
+        lines += [f"# {title}", ""]
+    lines.append("| " + " | ".join(keys) + " |")
+    lines.append("|" + "|".join("---" for _ in keys) + "|")
+    for i in range(len(cols["parameter"])):
+        lines.append("| " + " | ".join(_fmt(cols[k][i]) for k in keys) + " |")
+    lines.append("")
+    for k, v in table.get("meta", {}).items():
+        lines.append(f"- {k}: {v}")
+    return "\n".join(lines) + "\n"

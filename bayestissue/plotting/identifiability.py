@@ -1,0 +1,207 @@
+"""Figures of the identifiability study: profiles, singular values, collinearity, contraction, T1 vs T2.
+
+Every function returns its figure (or axes) and never saves or shows; studies save.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+__all__ = [
+    "COLOURS",
+    "plot_profiles",
+    "plot_singular_values",
+    "plot_collinearity",
+    "plot_contraction",
+    "plot_marginals_overlay",
+    "plot_corner_overlay",
+    "plot_cross_prediction",
+    "plot_rate_study",
+    "plot_widths",
+]
+
+#: Colours per analysis label.
+COLOURS = {"T1": "tab:blue", "T2": "tab:orange", "joint": "tab:green", "T1+T2": "tab:green"}
+
+
+def _colour(label, k):
+    return COLOURS.get(label, f"C{k + 3}")
+
+
+def _grid(n, ncols=4, size=(3.2, 2.6)):
+    nrows = int(np.ceil(n / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(size[0] * ncols, size[1] * nrows), squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.set_visible(False)
+    return fig, axes.ravel()
+
+
+def plot_profiles(
+    profiles: Mapping[str, Sequence], names: Sequence[str], *, threshold: float = 3.84, ymax=12.0
+):
+    """Profile likelihoods :math:`\\Delta\\chi^2` per parameter (one panel each), one curve per analysis.
+
+    ``profiles`` maps a label (``"T1"``) to a list of ProfileResult (any order; matched by ``name``).
+    """
+    fig, axes = _grid(len(names))
+    for j, name in enumerate(names):
+        ax = axes[j]
+        for k, (label, prs) in enumerate(profiles.items()):
+            pr = next((p for p in prs if p is not None and p.name == name), None)
+            if pr is None:
+                continue
+            ax.plot(pr.values, np.clip(pr.delta_chi2, -1, ymax), ".-", ms=3, color=_colour(label, k),
+                    label=f"{label}: {pr.classification.split()[0]}")
+            ax.plot([pr.theta_hat], [0], "o", color=_colour(label, k), ms=4)
+        ax.axhline(threshold, color="k", lw=0.8, ls="--")
+        ax.set_xscale("log")
+        ax.set_ylim(-0.5, ymax)
+        ax.set_title(name, fontsize=9)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=6, loc="upper center")
+    axes[0].set_ylabel(r"$\Delta\chi^2$ (profile)")
+    fig.suptitle(r"Profile likelihoods (dashed: $\chi^2_{1,0.95}$ = 3.84)", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_singular_values(spectra: Mapping[str, np.ndarray], *, ax=None):
+    """Singular values of the scaled sensitivity matrices (log scale), one series per analysis."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 4))
+    for k, (label, s) in enumerate(spectra.items()):
+        s = np.maximum(np.asarray(s, float), 1e-18)
+        ax.semilogy(np.arange(1, s.size + 1), s, "o-", color=_colour(label, k), label=label)
+    ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.text(1, 1.3, "1: determined to a factor e", fontsize=7)
+    ax.set_xlabel("index k")
+    ax.set_ylabel(r"singular value $s_k$ of $S$ (log-parameters / noise sd)")
+    ax.set_title("Sloppiness: singular-value spectra")
+    ax.legend()
+    return ax.figure
+
+
+def plot_collinearity(tables: Mapping[str, list], *, threshold: float = 10.0, ax=None):
+    """Collinearity index :math:`\\gamma_K` against subset size (Brun et al. 2001), one colour per analysis.
+
+    ``tables`` maps a label to a list of (subset, gamma); infinite gammas are drawn at the top edge.
+    """
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 4))
+    top = 1e4
+    for k, (label, table) in enumerate(tables.items()):
+        size = np.array([len(s) for s, _ in table], float)
+        g = np.array([min(gm, top) for _, gm in table])
+        jitter = (k - (len(tables) - 1) / 2) * 0.2
+        ax.semilogy(size + jitter, g, ".", ms=2, alpha=0.4, color=_colour(label, k), label=label)
+    ax.axhline(threshold, color="k", lw=0.8, ls="--")
+    ax.set_ylim(0.8, top * 1.5)
+    ax.set_xlabel("subset size K")
+    ax.set_ylabel(r"collinearity index $\gamma_K$ (capped at $10^4$)")
+    ax.set_title(f"Collinearity of all parameter subsets (dashed: {threshold:g})")
+    ax.legend(markerscale=5)
+    return ax.figure
+
+
+def plot_contraction(values: Mapping[str, np.ndarray], names: Sequence[str], *, ylabel="", ax=None):
+    """Grouped bars per parameter (e.g. posterior contraction or KL divergence), one colour per analysis."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(9, 3.6))
+    n = len(values)
+    w = 0.8 / max(n, 1)
+    x = np.arange(len(names))
+    for k, (label, v) in enumerate(values.items()):
+        ax.bar(x + (k - (n - 1) / 2) * w, np.asarray(v, float), w, color=_colour(label, k), label=label)
+    ax.set_xticks(x, names, rotation=45, fontsize=8)
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=8)
+    ax.figure.tight_layout()
+    return ax.figure
+
+
+def plot_marginals_overlay(
+    draws: Mapping[str, np.ndarray], names: Sequence[str], *, bins=40, xlabel="scaled box u"
+):
+    """Marginal histograms of several posteriors overlaid (one panel per parameter)."""
+    fig, axes = _grid(len(names))
+    for j, name in enumerate(names):
+        ax = axes[j]
+        for k, (label, d) in enumerate(draws.items()):
+            ax.hist(d[:, j], bins=bins, range=(0, 1), density=True, histtype="stepfilled", alpha=0.35,
+                    color=_colour(label, k), label=label)
+        ax.axhline(1.0, color="k", lw=0.6, ls=":")
+        ax.set_title(name, fontsize=9)
+        ax.set_xlim(0, 1)
+        ax.tick_params(labelsize=7)
+        ax.set_xlabel(xlabel, fontsize=7)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("Marginal posteriors in the scaled box (dotted: the prior)", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_corner_overlay(draws: Mapping[str, np.ndarray], names: Sequence[str]):
+    """Two-colour (or more) corner plot of posteriors in the scaled box :math:`[0, 1]^p`."""
+    import corner
+
+    fig = None
+    handles = []
+    for k, (label, d) in enumerate(draws.items()):
+        c = _colour(label, k)
+        fig = corner.corner(
+            d, labels=list(names), range=[(0, 1)] * d.shape[1], color=c, fig=fig, bins=25,
+            plot_datapoints=False, plot_density=False, fill_contours=False, levels=(0.5, 0.9),
+            hist_kwargs={"density": True}, label_kwargs={"fontsize": 8},
+        )
+        handles.append(plt.Line2D([], [], color=c, label=label))
+    fig.legend(handles=handles, loc="upper right", fontsize=12)
+    return fig
+
+
+def plot_cross_prediction(time_s, y_obs, band, median, *, title="", coverage=None, ax=None):
+    """Data against a posterior-predictive band ``band = (lower, upper)`` and median."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 3.6))
+    ax.fill_between(time_s, band[0], band[1], color="tab:purple", alpha=0.3, label="90 % predictive band")
+    ax.plot(time_s, median, color="tab:purple", lw=1, label="predictive median")
+    ax.plot(time_s, y_obs, ".", ms=2, color="k", label="data")
+    if coverage is not None:
+        title = f"{title}\n{100 * coverage:.0f} % of the data inside the band"
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("displacement (mm)")
+    ax.legend(fontsize=7)
+    return ax.figure
+
+
+def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], *, ax=None, marks=None):
+    """Gauss-Newton sd of log-parameters against the loading-rate factor (log-log), one line per parameter.
+
+    ``marks`` optionally maps a parameter to a bool per rate (profile says identifiable: filled marker).
+    """
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 4))
+    f = np.asarray(rate_factors, float)
+    for k, (name, se) in enumerate(se_log.items()):
+        se = np.minimum(np.asarray(se, float), 1e3)
+        ax.loglog(f, se, "-", color=f"C{k}", label=name)
+        ok = np.asarray(marks.get(name, np.zeros(f.size, bool))) if marks else np.zeros(f.size, bool)
+        ax.loglog(f[ok], se[ok], "o", color=f"C{k}")
+        ax.loglog(f[~ok], se[~ok], "o", mfc="none", color=f"C{k}")
+    ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.axvline(1.0, color="grey", lw=0.8, ls=":")
+    ax.set_xlabel("ramp rate / T2 rate (3.24 kPa/min)")
+    ax.set_ylabel("sd of log-parameter (Gauss-Newton)")
+    ax.set_title("Designed T2-like ramps, data simulated from the T1 posterior\n"
+                 "filled: profile closed on both sides", fontsize=9)
+    ax.legend(fontsize=7)
+    return ax.figure
+
+
+def plot_widths(widths: Mapping[str, np.ndarray], names: Sequence[str], *, ax=None):
+    """Central 90 % interval widths (scaled box) per parameter for several posteriors (grouped bars)."""
+    return plot_contraction(widths, names, ylabel="90 % interval width (scaled box u)", ax=ax)

@@ -1,0 +1,121 @@
+"""Forward-model speed: T1 simulations per second on one core, against a straightforward baseline in the same run.
+
+The batch: parameter sets drawn from the Table 1 box (MODEL.md) the way the default prior draws them (log-uniform
+for the moduli and rates, uniform for gamma), seeded. The baseline: per set, per step ``scipy.optimize.root`` on the
+six equilibrium equations with a NumPy stress (bayestissue.mechanics.reference). Also the first-call compile time
+(cold numba cache, in a fresh process) and the warm-cache start-up.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_forward.py [--n-sets 2000] [--n-baseline 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from bayestissue.mechanics import PAPER_BOUNDS, PAPER_PARAMETERS, load_experiment, simulate  # noqa: E402
+from bayestissue.mechanics.reference import reference_simulate  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+_STARTUP = (
+    "import time; t = time.perf_counter(); import numpy as np; "
+    "from bayestissue.mechanics import load_experiment, simulate, PAPER_PARAMETERS; "
+    f"e = load_experiment({str(ROOT / 'data' / 'T1.toml')!r}); simulate(e, PAPER_PARAMETERS['T1']); "
+    "print(time.perf_counter() - t)"
+)
+
+
+def draw_box(n: int, rng) -> np.ndarray:
+    lo, hi = PAPER_BOUNDS.T
+    p = np.exp(rng.uniform(np.log(lo), np.log(hi), (n, lo.size)))
+    for j in (3, 6, 9):  # gamma: uniform
+        p[:, j] = rng.uniform(lo[j], hi[j], n)
+    return p
+
+
+def first_call_seconds(cache_dir: str) -> float:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir, OPENBLAS_NUM_THREADS="1")
+    out = subprocess.run([sys.executable, "-c", _STARTUP], env=env, capture_output=True, text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n-sets", type=int, default=2000)
+    ap.add_argument("--n-baseline", type=int, default=5)
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args(argv)
+
+    with tempfile.TemporaryDirectory() as cache:
+        cold = first_call_seconds(cache)
+        warm = first_call_seconds(cache)
+    print(f"first call (compile, cold numba cache): {cold:.2f} s; with warm cache: {warm:.2f} s (target < 10 s)")
+
+    exp = load_experiment(ROOT / "data" / "T1.toml")
+    rng = np.random.default_rng(args.seed)
+    sets = draw_box(args.n_sets, rng)
+    simulate(exp, sets[:4])  # compile / load from cache outside the timing
+    t0 = time.perf_counter()
+    u = simulate(exp, sets)
+    fast = time.perf_counter() - t0
+    ok = np.isfinite(u[:, -1])
+    per_fast = fast / args.n_sets
+    print(
+        f"compiled batch: {args.n_sets} T1 simulations ({exp.n_steps} steps) in {fast:.3f} s = {per_fast * 1e6:.1f} us "
+        f"each, {1 / per_fast:,.0f}/s; {np.count_nonzero(~ok)} sets flagged failed ({np.mean(~ok):.1%})"
+    )
+    near = PAPER_PARAMETERS["T1"] * np.exp(rng.normal(0, 0.2, (args.n_sets, 11)))
+    near[:, [3, 6, 9]] = np.clip(near[:, [3, 6, 9]], 0.1, 0.95)
+    t0 = time.perf_counter()
+    u_near = simulate(exp, near)
+    per_near = (time.perf_counter() - t0) / args.n_sets
+    print(
+        f"compiled batch near the T1 optimum (log-normal 20 % scatter): {per_near * 1e6:.1f} us each, "
+        f"{1 / per_near:,.0f}/s; {np.count_nonzero(np.isnan(u_near[:, -1]))} failed"
+    )
+
+    t = exp.tissue
+    base_sets = sets[ok][: args.n_baseline]
+    t0 = time.perf_counter()
+    for p in base_sets:
+        reference_simulate(
+            p,
+            t.directions,
+            t.phi_fibres,
+            t.phi_matrix,
+            t.bulk_kpa,
+            exp.nominal_stress_kpa(),
+            exp.dt_s,
+            exp.specimen_mm[0],
+        )
+    per_base = (time.perf_counter() - t0) / len(base_sets)
+    print(
+        f"baseline (scipy.optimize.root per step, NumPy stress): {per_base * 1e3:.1f} ms each ({len(base_sets)} sets)"
+    )
+    ratio = per_base / per_fast
+    print(
+        f"ratio baseline/compiled: {ratio:,.0f}x (target >= 1000x); compiled rate {1 / per_fast:,.0f}/s "
+        f"(target >= 10,000/s)"
+    )
+    return {
+        "per_sim_s": per_fast,
+        "per_sim_near_s": per_near,
+        "baseline_s": per_base,
+        "ratio": ratio,
+        "compile_s": cold,
+        "warm_start_s": warm,
+        "failed_fraction": float(np.mean(~ok)),
+    }
+
+
+if __name__ == "__main__":
+    main()

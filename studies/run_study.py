@@ -1,0 +1,70 @@
+"""The main study (``make study``): every stage on the bundled data, writing into figures/.
+
+Stages run in order, each a script in studies/ with a ``main(argv)``; the time of each is printed at the end.
+``--quick`` is a smoke run (CI-sized chains), ``--full`` publication-quality chains; the default fits the 20-minute
+budget on a 2-core machine.
+
+    python studies/run_study.py [--quick | --full] [--only STAGE ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import sys
+import time
+import traceback
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+HERE = Path(__file__).resolve().parent
+
+#: (stage name, script) in execution order: data -> figures -> calibration -> identifiability -> report.
+STAGES = (
+    ("forward model", "forward_figure.py"),
+)
+
+
+def _load(script: str):
+    spec = importlib.util.spec_from_file_location(script[:-3], HERE / script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true", help="smoke run (short chains)")
+    mode.add_argument("--full", action="store_true", help="publication-quality chains")
+    ap.add_argument("--only", nargs="+", metavar="STAGE", help="run only these scripts (e.g. forward_figure.py)")
+    args = ap.parse_args(argv)
+    flags = ["--quick"] if args.quick else ["--full"] if args.full else []
+    timings, failed = [], []
+    t_all = time.perf_counter()
+    for name, script in STAGES:
+        if args.only and script not in args.only:
+            continue
+        print(f"\n=== stage: {name} ({script} {' '.join(flags)}) ===", flush=True)
+        t0 = time.perf_counter()
+        try:
+            _load(script).main(flags)
+        except Exception:  # a failed stage is reported; the others still run
+            traceback.print_exc()
+            failed.append(name)
+        timings.append((name, time.perf_counter() - t0))
+    print("\n=== time per stage ===")
+    for name, sec in timings:
+        print(f"{name:<28s} {sec:8.1f} s")
+    print(f"{'total':<28s} {time.perf_counter() - t_all:8.1f} s")
+    if failed:
+        print(f"FAILED stages: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

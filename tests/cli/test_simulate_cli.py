@@ -1,0 +1,69 @@
+"""`bayestissue simulate`: output, and exit status 2 with a one-line message (no traceback) on bad input."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayestissue.cli import main
+from bayestissue.io.tables import read_table
+from bayestissue.mechanics import PAPER_PARAMETERS, load_experiment, simulate
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
+def test_simulate_writes_curve(tmp_path):
+    out = tmp_path / "sim.csv"
+    assert (
+        main(
+            [
+                "simulate",
+                str(DATA / "T1.toml"),
+                "--preset",
+                "T1",
+                "--params",
+                "mu=2.5",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    cols, meta = read_table(out, required=("time_s", "displacement_mm", "force_mN"))
+    p = PAPER_PARAMETERS["T1"].copy()
+    p[0] = 2.5
+    np.testing.assert_allclose(cols["displacement_mm"], simulate(load_experiment(DATA / "T1.toml"), p), rtol=1e-9)
+    assert "mu=2.5" in meta["parameters"]
+
+
+def test_simulate_prints(capsys):
+    assert main(["simulate", str(DATA / "T2.toml")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[3] == "time_s,displacement_mm,force_mN"
+    assert len(out) == 4 + 143
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--params", "nu=1"], "--params: expected one of the parameter names"),
+        (["--params", "gamma2=1.5"], "gamma2: expected a value in [0, 1), got 1.5"),
+        (["--params", "beta1=-1"], "beta1: expected a rate > 0 (1/s), got -1.0"),
+    ],
+)
+def test_bad_params_exit_2_without_traceback(args, message):
+    r = subprocess.run(
+        [sys.executable, "-m", "bayestissue", "simulate", str(DATA / "T1.toml"), *args],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 2
+    assert message in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_missing_experiment_exit_2(capsys, tmp_path):
+    assert main(["simulate", str(tmp_path / "none.toml")]) == 2
+    assert "experiment file" in capsys.readouterr().err

@@ -1,0 +1,137 @@
+"""The real-model wiring: residuals, specimen-level forwards, rate scenarios, replicate pooling."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayestissue._validation import ValidationError
+from bayestissue.identifiability.calibration import (
+    PAPER_HALF_ANGLE_DEG,
+    ExperimentResiduals,
+    SpecimenForward,
+    build_problem,
+    specimen_spec,
+    tissue_with_half_angle,
+)
+from bayestissue.identifiability.propagate import (
+    half_angles_deg,
+    interval_width,
+    pool_draws,
+    replicate_tissues,
+    width_ratio,
+)
+from bayestissue.identifiability.scenarios import ramp_scenario, synthetic_replica
+from bayestissue.mechanics import PAPER_PARAMETERS, PAPER_TISSUE, load_experiment, simulate
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+P1 = np.asarray(PAPER_PARAMETERS["T1"])
+
+
+@pytest.fixture(scope="module")
+def t2():
+    return load_experiment(DATA / "T2.toml")
+
+
+def test_residuals_vanish_on_noise_free_replica(t2):
+    exp = synthetic_replica(t2, P1, sd=1e-12, rng=0)
+    r = ExperimentResiduals((exp,))
+    assert np.max(np.abs(r(P1))) < 10  # noise of 1e-12 scaled by 1e-12
+    assert r(np.tile(P1, (3, 1))).shape == (3, t2.time_s.size)
+    assert np.max(np.abs(r.predict(P1) - simulate(t2, P1))) == 0
+
+
+def test_specimen_scale_and_angle_forwards(t2):
+    base = simulate(t2, P1)
+    f_none = SpecimenForward(t2)
+    np.testing.assert_array_equal(f_none(np.append(P1, 3.0))[0], base)
+    f_scale = SpecimenForward(t2, "scale")
+    np.testing.assert_allclose(f_scale(np.append(P1, 1.0))[0], base, rtol=1e-12)
+    # scaling every modulus by s is the same as dividing the load by s (stress is linear in the moduli)
+    soft = f_scale(np.append(P1, 0.5))[0]
+    assert np.all(soft[1:] > base[1:])
+    f_angle = SpecimenForward(t2, "angle")
+    np.testing.assert_allclose(f_angle(np.append(P1, PAPER_HALF_ANGLE_DEG))[0], base, atol=1e-9)
+    steep = f_angle(np.append(P1, 45.0))[0]
+    assert np.all(steep[-10:] > base[-10:])  # fibres further from the load axis: softer
+    tis = tissue_with_half_angle(PAPER_TISSUE, 30.0)
+    assert half_angles_deg(tis.directions)[0] == pytest.approx(30.0)
+    with pytest.raises(ValidationError, match="kind"):
+        SpecimenForward(t2, "twist")
+    with pytest.raises(ValidationError, match="specimen parameter kind"):
+        specimen_spec("twist")
+
+
+def test_build_problem_with_specimen_parameter(t2):
+    prob = build_problem((t2,), specimen=("scale", "T2"))
+    assert prob.names[-1] == "scale" and prob.ndim == 12
+    assert np.isfinite(prob.log_posterior(np.append(P1, 1.0)))
+    with pytest.raises(ValidationError, match="specimen target"):
+        build_problem((t2,), specimen=("scale", "T1"))
+
+
+def test_ramp_scenario_reproduces_template_and_scales_time(t2):
+    same = ramp_scenario(t2, 1.0)
+    np.testing.assert_allclose(same.time_s, t2.time_s)
+    np.testing.assert_allclose(simulate(same, P1), simulate(t2, P1), rtol=1e-12)
+    fast = ramp_scenario(t2, 10.0)
+    assert fast.time_s.size == t2.time_s.size
+    ramp = t2.time_s[-1] - t2.protocol.hold_s
+    assert fast.time_s[-1] - t2.protocol.hold_s == pytest.approx(ramp / 10)
+    # same peak stress
+    assert fast.nominal_stress_kpa()[-1] == pytest.approx(t2.nominal_stress_kpa()[-1], rel=1e-9)
+    with pytest.raises(ValidationError, match="rate_factor"):
+        ramp_scenario(t2, 0.0)
+    t1 = load_experiment(DATA / "T1.toml")
+    with pytest.raises(ValidationError, match="RampProtocol"):
+        ramp_scenario(t1, 2.0)
+
+
+def test_synthetic_replica_noise_level(t2):
+    exp = synthetic_replica(t2, P1, sd=0.02, rng=1)
+    resid = exp.displacement_mm - simulate(t2, P1)
+    assert np.std(resid) == pytest.approx(0.02, rel=0.15)
+    assert exp.synthetic and exp.noise_sd_mm == 0.02
+    with pytest.raises(ValidationError, match="sd"):
+        synthetic_replica(t2, P1, sd=0.0)
+
+
+def test_replicate_tissues_and_pooling():
+    rng = np.random.default_rng(0)
+    D = np.repeat(np.asarray(PAPER_TISSUE.directions)[None], 4, axis=0)
+    reps = {"directions": D, "phi_fibres": np.full((4, 3), 0.2), "phi_matrix": np.full(4, 0.4)}
+    tis = replicate_tissues(reps, base=PAPER_TISSUE)
+    assert len(tis) == 4 and tis[0].phi_matrix == pytest.approx(0.4)
+    np.testing.assert_allclose(half_angles_deg(D), PAPER_HALF_ANGLE_DEG)
+    with pytest.raises(ValidationError, match="replicates"):
+        replicate_tissues({"directions": D}, base=PAPER_TISSUE)
+    # mixture of N(-1, 1) and N(1, 1): variance 2, width ratio sqrt(2)-ish against N(0, 1)
+    a = rng.normal(-1, 1, (20000, 1))
+    b = rng.normal(1, 1, (20000, 1))
+    pooled = pool_draws([a, b], rng=1)
+    assert pooled.shape == (40000, 1)
+    assert np.var(pooled) == pytest.approx(2.0, rel=0.05)
+    base = rng.normal(0, 1, (20000, 1))
+    assert width_ratio(base, pooled)[0] == pytest.approx(
+        interval_width(pooled)[0] / (2 * 1.6449), rel=0.05
+    )
+    with pytest.raises(ValidationError, match="draws"):
+        pool_draws([])
+    with pytest.raises(ValidationError, match="n_per"):
+        pool_draws([a], n_per=10**6)
+    with pytest.raises(ValidationError, match="level"):
+        interval_width(a, level=2)
+
+
+def test_replicate_tissue_rejects_bad_fraction_sum():
+    reps = {
+        "directions": np.asarray(PAPER_TISSUE.directions)[None],
+        "phi_fibres": np.array([[0.2, 0.2, 0.2]]),
+        "phi_matrix": np.array([0.5]),
+    }
+    tis = replicate_tissues(reps, base=PAPER_TISSUE)  # renormalised to sum 1
+    assert tis[0].phi_matrix + tis[0].phi_fibres.sum() == pytest.approx(1.0)
+    assert replace(tis[0]).bulk_kpa == PAPER_TISSUE.bulk_kpa
