@@ -88,9 +88,7 @@ def _update(h, obj) -> None:
         h.update(b"pk:" + pickle.dumps(obj, protocol=4))
 
 
-def task_key(
-    func: Callable, args: Sequence = (), kwargs: dict | None = None, *, salt: str = ""
-) -> str:
+def task_key(func: Callable, args: Sequence = (), kwargs: dict | None = None, *, salt: str = "") -> str:
     """Content hash of a task: the function's module and qualified name, its arguments and a
     ``salt``.
 
@@ -179,15 +177,11 @@ def start_client(scheduler: str | None = None, *, n_workers: int | None = None):
             )
         return Client(scheduler)
     if n_workers is None:
-        n_workers = (
-            len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-        )
+        n_workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     n_workers = int(n_workers)
     if n_workers < 1:
         raise ValidationError("n_workers", n_workers, "an integer >= 1")
-    cluster = LocalCluster(
-        n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None
-    )
+    cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None)
     return Client(cluster)
 
 
@@ -269,14 +263,10 @@ def fan_out(
         from dask.distributed import as_completed
 
         name = getattr(func, "__name__", type(func).__name__)
-        run = uuid.uuid4().hex[
-            :8
-        ]  # a fresh dask key per call: an erred key of an earlier call is not reused
+        run = uuid.uuid4().hex[:8]  # a fresh dask key per call: an erred key of an earlier call is not reused
         futures = {}
         for k, idx in todo.items():
-            fut = client.submit(
-                _call, func, args_all[idx[0]], kwargs, key=f"{name}-{k[:16]}-{run}", pure=False
-            )
+            fut = client.submit(_call, func, args_all[idx[0]], kwargs, key=f"{name}-{k[:16]}-{run}", pure=False)
             futures[fut] = k
         first_error = None
         for fut in as_completed(list(futures)):

@@ -36,6 +36,7 @@ from bayestissue.identifiability import (  # noqa: E402
 from bayestissue.identifiability.calibration import (  # noqa: E402
     CalibrationTask,
     ExperimentResiduals,
+    drop_stuck_draws,
     run_calibration,
 )
 from bayestissue.mechanics import (  # noqa: E402
@@ -80,12 +81,34 @@ class Mode:
 
 
 MODES = {
-    "quick": Mode("quick", 120, 2, 0, ("mu", "ginf1", "beta2"), 6, 1e-4, (0.1, 1.0, 10.0), (1.0,), 2, 60,
-                  keep=1000),
-    "default": Mode("default", 700, 2, 2, NAMES, 14, 1e-6, (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0),
-                    (0.01, 0.1, 1.0, 10.0), 6, 250),
-    "full": Mode("full", 6000, 4, 8, NAMES, 40, 1e-8, tuple(np.round(np.logspace(-2, 2, 13), 4)),
-                 tuple(np.round(np.logspace(-2, 2, 7), 4)), 40, 2000, keep=20000),
+    "quick": Mode("quick", 120, 2, 0, ("mu", "ginf1", "beta2"), 6, 1e-4, (0.1, 1.0, 10.0), (1.0,), 2, 60, keep=1000),
+    "default": Mode(
+        "default",
+        700,
+        2,
+        2,
+        NAMES,
+        14,
+        1e-6,
+        (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0),
+        (0.01, 0.1, 1.0, 10.0),
+        6,
+        250,
+    ),
+    "full": Mode(
+        "full",
+        6000,
+        4,
+        8,
+        NAMES,
+        40,
+        1e-8,
+        tuple(np.round(np.logspace(-2, 2, 13), 4)),
+        tuple(np.round(np.logspace(-2, 2, 7), 4)),
+        40,
+        2000,
+        keep=20000,
+    ),
 }
 
 
@@ -94,12 +117,18 @@ def parse_args(argv=None, description=__doc__):
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--quick", action="store_true", help="CI smoke run (about a minute)")
     g.add_argument("--full", action="store_true", help="publication-quality chains and profiles")
-    ap.add_argument("--scheduler", default=None, help="dask scheduler address, e.g. tcp://host:8786 "
-                    "(default: a LocalCluster on this machine)")
+    ap.add_argument(
+        "--scheduler",
+        default=None,
+        help="dask scheduler address, e.g. tcp://host:8786 (default: a LocalCluster on this machine)",
+    )
     ap.add_argument("--n-workers", type=int, default=None, help="LocalCluster workers (default: cores)")
     ap.add_argument("--serial", action="store_true", help="no dask: run every task in this process")
-    ap.add_argument("--cache-dir", default=str(ROOT / ".cache" / "identifiability"),
-                    help="result cache (content-hash keyed; delete it to recompute)")
+    ap.add_argument(
+        "--cache-dir",
+        default=str(ROOT / ".cache" / "identifiability"),
+        help="result cache (content-hash keyed; delete it to recompute)",
+    )
     ap.add_argument("--data", default=str(ROOT / "data"))
     ap.add_argument("--out", default=str(ROOT / "figures"))
     ap.add_argument("--seed", type=int, default=20261121)
@@ -153,8 +182,7 @@ def base_tasks(args):
     e1, e2 = experiments(args)
     m = args.mode
     starts = (tuple(PAPER_PARAMETERS["T1"]), tuple(PAPER_PARAMETERS["T2"]))
-    kw = dict(n_steps=m.n_steps, n_ensembles=m.n_ensembles, n_starts=m.n_starts, extra_starts=starts,
-              keep=m.keep)
+    kw = dict(n_steps=m.n_steps, n_ensembles=m.n_ensembles, n_starts=m.n_starts, extra_starts=starts, keep=m.keep)
     return [
         CalibrationTask((e1,), seed=args.seed + 1, label="T1", **kw),
         CalibrationTask((e2,), seed=args.seed + 2, label="T2", **kw),
@@ -165,7 +193,7 @@ def base_tasks(args):
 def calibrations(args, client):
     """{label: CalibrationOutcome} for T1, T2, joint (cached)."""
     outs = fan_out(run_calibration, base_tasks(args), cache_dir=args.cache_dir, client=client, salt=SALT)
-    return dict(zip(LABELS, outs, strict=True))
+    return {lab: drop_stuck_draws(o) for lab, o in zip(LABELS, outs, strict=True)}
 
 
 def interior(theta, lo=PAPER_BOUNDS[:, 0], hi=PAPER_BOUNDS[:, 1]):
@@ -175,8 +203,7 @@ def interior(theta, lo=PAPER_BOUNDS[:, 0], hi=PAPER_BOUNDS[:, 1]):
 
 def residuals_for(args):
     e1, e2 = experiments(args)
-    return {"T1": ExperimentResiduals((e1,)), "T2": ExperimentResiduals((e2,)),
-            "joint": ExperimentResiduals((e1, e2))}
+    return {"T1": ExperimentResiduals((e1,)), "T2": ExperimentResiduals((e2,)), "joint": ExperimentResiduals((e1, e2))}
 
 
 def local_analyses(res, cal):
@@ -190,8 +217,9 @@ def local_analyses(res, cal):
 
 def profiles(args, client, res, cal):
     m = args.mode
-    opt = ProfileOptions(ftol=m.profile_ftol, max_nfev=100 if m.name != "full" else 300,
-                         step0=0.1, max_steps=m.profile_steps)
+    opt = ProfileOptions(
+        ftol=m.profile_ftol, max_nfev=100 if m.name != "full" else 300, step0=0.1, max_steps=m.profile_steps
+    )
     jobs = [(res[lab], interior(cal[lab].ls_x), NAMES.index(p)) for lab in LABELS for p in m.profile_params]
     kw = dict(lower=PAPER_BOUNDS[:, 0], upper=PAPER_BOUNDS[:, 1], names=NAMES, batched=True, options=opt)
     out = fan_out(profile_likelihood, jobs, cache_dir=args.cache_dir, client=client, kwargs=kw, salt=SALT)
@@ -246,9 +274,11 @@ def main(argv=None) -> int:
         cal = calibrations(args, client)
         for lab in LABELS:
             c = cal[lab]
-            print(f"  {lab}: chi2_min {c.ls_chi2:.1f} (n = {c.loglik.shape[0] if c.loglik is not None else 0}"
-                  f" draws, acceptance {c.acceptance:.3f}, max R-hat "
-                  f"{np.nanmax(c.rhat) if c.rhat is not None else float('nan'):.3f})")
+            print(
+                f"  {lab}: chi2_min {c.ls_chi2:.1f} (n = {c.loglik.shape[0] if c.loglik is not None else 0}"
+                f" draws, acceptance {c.acceptance:.3f}, max R-hat "
+                f"{np.nanmax(c.rhat) if c.rhat is not None else float('nan'):.3f})"
+            )
         T.stage("local sensitivities")
         res = residuals_for(args)
         loc = local_analyses(res, cal)
@@ -259,20 +289,29 @@ def main(argv=None) -> int:
     T.stage("posterior measures + figures")
     post = posterior_measures(cal)
 
-    savefig(plot_profiles(prof, [p for p in NAMES if p in args.mode.profile_params], threshold=CHI2_1_95),
-            out / "identifiability_profiles.png")
-    savefig(plot_singular_values({lab: loc[lab].singular_values for lab in LABELS}),
-            out / "identifiability_singular_values.png")
-    savefig(plot_collinearity({lab: [(s, g) for s, g in loc[lab].collinearity] for lab in LABELS}),
-            out / "identifiability_collinearity.png")
-    savefig(plot_contraction({lab: post[lab]["contraction"] for lab in LABELS}, NAMES,
-                             ylabel="contraction 1 - var_post/var_prior"),
-            out / "identifiability_contraction.png")
-    savefig(plot_contraction({lab: post[lab]["kl"] for lab in LABELS}, NAMES,
-                             ylabel="KL(posterior || prior) (nats)"),
-            out / "identifiability_kl.png")
-    savefig(plot_marginals_overlay({lab: cal[lab].u for lab in LABELS}, NAMES),
-            out / "posterior_marginals.png")
+    savefig(
+        plot_profiles(prof, [p for p in NAMES if p in args.mode.profile_params], threshold=CHI2_1_95),
+        out / "identifiability_profiles.png",
+    )
+    savefig(
+        plot_singular_values({lab: loc[lab].singular_values for lab in LABELS}),
+        out / "identifiability_singular_values.png",
+    )
+    savefig(
+        plot_collinearity({lab: [(s, g) for s, g in loc[lab].collinearity] for lab in LABELS}),
+        out / "identifiability_collinearity.png",
+    )
+    savefig(
+        plot_contraction(
+            {lab: post[lab]["contraction"] for lab in LABELS}, NAMES, ylabel="contraction 1 - var_post/var_prior"
+        ),
+        out / "identifiability_contraction.png",
+    )
+    savefig(
+        plot_contraction({lab: post[lab]["kl"] for lab in LABELS}, NAMES, ylabel="KL(posterior || prior) (nats)"),
+        out / "identifiability_kl.png",
+    )
+    savefig(plot_marginals_overlay({lab: cal[lab].u for lab in LABELS}, NAMES), out / "posterior_marginals.png")
     for lab in LABELS:
         fig = plot_corner_overlay({lab: cal[lab].u}, NAMES)
         savefig(fig, out / f"posterior_corner_{lab}.png")
@@ -285,27 +324,41 @@ def main(argv=None) -> int:
     fig.colorbar(im, ax=axes, shrink=0.8)
     savefig(fig, out / "posterior_correlation.png")
 
-    summary = {"mode": args.mode.name, "names": NAMES, "calibration": {}, "local": {}, "profiles": {},
-               "posterior": {}}
+    summary = {"mode": args.mode.name, "names": NAMES, "calibration": {}, "local": {}, "profiles": {}, "posterior": {}}
     for lab in LABELS:
         c = cal[lab]
         summary["calibration"][lab] = {
-            "ls_x": c.ls_x, "ls_chi2": c.ls_chi2, "chi2_parts": c.chi2_parts, "ls_active": c.ls_active,
-            "ls_start_chi2": [s[1] for s in c.ls_starts], "n_obs": int(res[lab].sd.size),
-            "median": np.median(c.draws, axis=0), "q05": np.quantile(c.draws, 0.05, axis=0),
-            "q95": np.quantile(c.draws, 0.95, axis=0), "rhat": c.rhat, "acceptance": c.acceptance,
-            "n_draws": c.draws.shape[0], "n_failed": c.n_failed, "time_mcmc_s": c.time_mcmc_s,
-            "u_mean": c.u.mean(axis=0), "u_sd": c.u.std(axis=0),
+            "ls_x": c.ls_x,
+            "ls_chi2": c.ls_chi2,
+            "chi2_parts": c.chi2_parts,
+            "ls_active": c.ls_active,
+            "ls_start_chi2": [s[1] for s in c.ls_starts],
+            "n_obs": int(res[lab].sd.size),
+            "median": np.median(c.draws, axis=0),
+            "q05": np.quantile(c.draws, 0.05, axis=0),
+            "q95": np.quantile(c.draws, 0.95, axis=0),
+            "rhat": c.rhat,
+            "acceptance": c.acceptance,
+            "n_draws": c.draws.shape[0],
+            "n_failed": c.n_failed,
+            "n_dropped": c.n_dropped,
+            "time_mcmc_s": c.time_mcmc_s,
+            "u_mean": c.u.mean(axis=0),
+            "u_sd": c.u.std(axis=0),
             "skew": ((c.u - c.u.mean(0)) ** 3).mean(0) / np.maximum(c.u.std(0), 1e-12) ** 3,
             "kurt": ((c.u - c.u.mean(0)) ** 4).mean(0) / np.maximum(c.u.std(0), 1e-12) ** 4,
         }
         a = loc[lab]
         gam = sorted(a.collinearity, key=lambda t: (len(t[0]), t[1]))
         summary["local"][lab] = {
-            "theta": a.theta, "singular_values": a.singular_values, "se_log": a.std_error_log,
-            "delta_msqr": a.delta_msqr, "sloppiest": a.sloppiest(3), "stiffest": [
-                {n: float(w) for n, w in zip(NAMES, row, strict=True) if abs(w) > 0.1}
-                for row in a.directions[:3]],
+            "theta": a.theta,
+            "singular_values": a.singular_values,
+            "se_log": a.std_error_log,
+            "delta_msqr": a.delta_msqr,
+            "sloppiest": a.sloppiest(3),
+            "stiffest": [
+                {n: float(w) for n, w in zip(NAMES, row, strict=True) if abs(w) > 0.1} for row in a.directions[:3]
+            ],
             "largest_subsets": [[list(s), g] for s, g in a.largest_subsets[:5]],
             "pairs": [[list(s), g] for s, g in gam if len(s) == 2],
             "n_subsets_ok": int(sum(g < 10 for _, g in a.collinearity)),
@@ -313,26 +366,44 @@ def main(argv=None) -> int:
             "n_informed": int(np.sum(a.singular_values > 1.0)),
         }
         summary["profiles"][lab] = [
-            {"name": p.name, "classification": p.classification, "ci": p.ci, "theta_hat": p.theta_hat,
-             "open": p.open_sides, "improved": p.improved, "n_points": int(p.values.size),
-             "max_delta": float(np.nanmax(p.delta_chi2)), "min_delta": float(np.nanmin(p.delta_chi2))}
+            {
+                "name": p.name,
+                "classification": p.classification,
+                "ci": p.ci,
+                "theta_hat": p.theta_hat,
+                "open": p.open_sides,
+                "improved": p.improved,
+                "n_points": int(p.values.size),
+                "max_delta": float(np.nanmax(p.delta_chi2)),
+                "min_delta": float(np.nanmin(p.delta_chi2)),
+            }
             for p in prof[lab]
         ]
         pm = post[lab]
         summary["posterior"][lab] = {
-            "contraction": pm["contraction"], "kl": pm["kl"],
-            "at_lower": pm["flags"]["at_lower"], "at_upper": pm["flags"]["at_upper"],
-            "share_lower": pm["flags"]["share_lower"], "share_upper": pm["flags"]["share_upper"],
-            "max_abs_corr": [[NAMES[i], NAMES[j], float(pm["corr"][i, j])] for i, j in
-                             sorted(((i, j) for i in range(11) for j in range(i + 1, 11)),
-                                    key=lambda ij: -abs(pm["corr"][ij]))[:5]],
+            "contraction": pm["contraction"],
+            "kl": pm["kl"],
+            "at_lower": pm["flags"]["at_lower"],
+            "at_upper": pm["flags"]["at_upper"],
+            "share_lower": pm["flags"]["share_lower"],
+            "share_upper": pm["flags"]["share_upper"],
+            "max_abs_corr": [
+                [NAMES[i], NAMES[j], float(pm["corr"][i, j])]
+                for i, j in sorted(
+                    ((i, j) for i in range(11) for j in range(i + 1, 11)), key=lambda ij: -abs(pm["corr"][ij])
+                )[:5]
+            ],
         }
     fam1 = [NAMES.index(n) for n in ("ginf1", "gamma1", "beta1")]
     summary["fibre1_check"] = {
-        lab: {"contraction": post[lab]["contraction"][fam1], "kl": post[lab]["kl"][fam1],
-              "sensitivity": loc[lab].delta_msqr[fam1],
-              "uninformed": bool(np.all(np.abs(post[lab]["contraction"][fam1]) < 0.2)
-                                 and np.all(post[lab]["kl"][fam1] < 0.15))}
+        lab: {
+            "contraction": post[lab]["contraction"][fam1],
+            "kl": post[lab]["kl"][fam1],
+            "sensitivity": loc[lab].delta_msqr[fam1],
+            "uninformed": bool(
+                np.all(np.abs(post[lab]["contraction"][fam1]) < 0.2) and np.all(post[lab]["kl"][fam1] < 0.15)
+            ),
+        }
         for lab in LABELS
     }
     summary["timings_s"] = T.done()

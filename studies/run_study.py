@@ -25,6 +25,7 @@ HERE = Path(__file__).resolve().parent
 #: (stage name, script) in execution order: data -> figures -> calibration -> identifiability -> report.
 STAGES = (
     ("forward model", "forward_figure.py"),
+    ("stereology", "stereology_figures.py"),
 )
 
 

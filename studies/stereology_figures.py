@@ -122,9 +122,7 @@ def main(argv=None) -> int:
             cells = []
             for c in tops:
                 k, a = _nearest_paper(c["vector"])
-                cells.append(
-                    f"{c['azimuth']:.1f}, {c['elevation']:.1f}, {c['share']:.2f} (v{k}, {a:.1f})"
-                )
+                cells.append(f"{c['azimuth']:.1f}, {c['elevation']:.1f}, {c['share']:.2f} (v{k}, {a:.1f})")
             md.append(f"| {n} | " + " | ".join(cells) + " |")
         md.append("")
 
@@ -142,15 +140,21 @@ def main(argv=None) -> int:
     cone_rows.append(("Watson mixture", bw))
     fig, axes = plt.subplots(1, 2, figsize=(12.5, 6.3))
     plot_lambert_directions(tops, cones_by_n=cones, reference=PAPER_DIRECTIONS, ax=axes[0])
-    axes[0].set_title("rose top-3 (ordered as v1, v2, v3) with 95 % cell-bootstrap cones", fontsize=9)
+    axes[0].set_title(
+        "rose top-3 per n (matched to v1, v2, v3) with 95 % cell-bootstrap cones\n"
+        "(wide cones: the top cells switch family between replicates)",
+        fontsize=9,
+        pad=14,
+    )
     plot_lambert_directions(
         {"Watson": list(bw["axes"])},
         cones_by_n={"Watson": bw["cone_deg"]},
         reference=PAPER_DIRECTIONS,
         ax=axes[1],
     )
-    axes[1].set_title("3-component Watson mixture (EM) with 95 % cell-bootstrap cones", fontsize=9)
+    axes[1].set_title("3-component Watson mixture (EM) with 95 % cell-bootstrap cones", fontsize=9, pad=14)
     fig.tight_layout()
+    fig.subplots_adjust(top=0.9)
     fig.savefig(args.out / "stereology_lambert.png", dpi=130)
     plt.close(fig)
     md += [
@@ -158,16 +162,17 @@ def main(argv=None) -> int:
         "",
         "Bootstrap over whole traced cells, refit, axes aligned to the point estimate (Hungarian assignment on",
         "the axial angle). Columns per family k (matched to the paper's v_k): angle to paper v_k, cone",
-        "half-angle, length share with its 95 % interval.",
+        "half-angle (deg), length share [95 % interval], line length in um [95 % interval].",
         "",
-        "| estimator | v1: angle, cone, share | v2 | v3 |",
+        "| estimator | v1: angle, cone, share [CI], length [CI] | v2 | v3 |",
         "|---|---|---|---|",
     ]
     for name, b in cone_rows:
         lo, hi = np.quantile(b["replicate_shares"], [0.025, 0.975], axis=0)
+        llo, lhi = b["length_ci_um"]
         cells = [
             f"{b['angle_to_paper_deg'][k]:.1f}, {b['cone_deg'][k]:.1f}, {b['shares'][k]:.2f} "
-            f"[{lo[k]:.2f}, {hi[k]:.2f}]"
+            f"[{lo[k]:.2f}, {hi[k]:.2f}], {b['lengths_um'][k]:.0f} [{llo[k]:.0f}, {lhi[k]:.0f}]"
             for k in range(3)
         ]
         md.append(f"| {name} | " + " | ".join(cells) + " |")

@@ -158,9 +158,7 @@ def test_lost_worker_is_survived_and_rerun_computes_nothing(tmp_path, client):
 
 def test_bad_client_and_scheduler_are_rejected(tmp_path):
     with pytest.raises(ValidationError, match="client"):
-        fan_out(
-            _square, [1], cache_dir=tmp_path, client="threads", kwargs={"markers": str(tmp_path)}
-        )
+        fan_out(_square, [1], cache_dir=tmp_path, client="threads", kwargs={"markers": str(tmp_path)})
     with pytest.raises(ValidationError, match="scheduler"):
         start_client("localhost")
     with pytest.raises(ValidationError, match="n_workers"):

@@ -135,9 +135,7 @@ def _rose(args) -> int:
     from bayestissue.stereology import LineSystem, directions_vs_n
 
     ls = LineSystem.from_file(args.lines)
-    res = directions_vs_n(
-        ls.directions, ls.lengths, ns=args.n, k=args.top, merge_deg=args.merge_deg
-    )
+    res = directions_vs_n(ls.directions, ls.lengths, ns=args.n, k=args.top, merge_deg=args.merge_deg)
     rows = []
     print(f"{'n':>3} {'rank':>4} {'az':>7} {'el':>6} {'share':>6} {'cells':>5}  vector")
     for n, tops in res.items():

@@ -7,12 +7,14 @@ Everything here is picklable and deterministic in its arguments, so it can be fa
   several experiments, for :func:`~bayestissue.identifiability.profile.profile_likelihood`, and the
   predictions for :func:`~bayestissue.identifiability.sensitivity.scaled_sensitivities`.
 * :class:`SpecimenForward` -- the forward model of one experiment under a *specimen-level* parameter appended
-  to the 11 material parameters: ``"scale"`` multiplies every modulus (mu, kappa, ginf_k) of that specimen
-  by :math:`s` (a stiffer or softer piece of the sole, cause 3 of the paper), ``"angle"`` sets the in-plane
-  half-angle :math:`\\alpha` (degrees) of fibre families 2 and 3, :math:`v_{2,3} = (\\cos\\alpha,
-  \\pm\\sin\\alpha, 0)` (the paper's directions have :math:`\\alpha = 20.05^\\circ`; cause 2).
+  to the 11 material parameters: ``"scale"`` multiplies every modulus (mu, kappa, ginf_k) of that
+  specimen by :math:`s` (a stiffer or softer piece of the sole, cause 3 of the paper), ``"angle"``
+  sets the in-plane half-angle :math:`\\alpha` (degrees) of fibre families 2 and 3, :math:`v_{2,3} =
+  (\\cos\\alpha, \\pm\\sin\\alpha, 0)` (the paper's directions have :math:`\\alpha = 20.05^\\circ`;
+  cause 2).
 * :class:`CalibrationTask` / :func:`run_calibration` -- least squares (multi-start, the paper's method) and
-  an emcee posterior through :mod:`bayestissue.inference` with the noise sd known from the data file.
+  an emcee posterior through :mod:`bayestissue.inference` with the noise sd known from the data
+  file.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from bayestissue.inference import (
     SamplerOptions,
     fit_least_squares,
     fit_multistart,
+    initial_walkers,
     paper_parameter_set,
     sample_posterior,
 )
@@ -49,6 +52,7 @@ __all__ = [
     "build_problem",
     "run_calibration",
     "noise_sd",
+    "drop_stuck_draws",
     "tissue_with_half_angle",
 ]
 
@@ -85,8 +89,8 @@ def tissue_with_half_angle(tissue: TissueConfig, alpha_deg: float) -> TissueConf
 class ExperimentResiduals:
     """Stacked scaled residuals of ``experiments`` as a function of the 11 material parameters.
 
-    ``r(theta)`` for ``theta`` (11,) -> (n_obs_total,), or (n_sets, 11) -> (n_sets, n_obs_total); NaN where a
-    solve failed. :meth:`predict` gives the stacked predictions (the same shapes).
+    ``r(theta)`` for ``theta`` (11,) -> (n_obs_total,), or (n_sets, 11) -> (n_sets, n_obs_total);
+    NaN where a solve failed. :meth:`predict` gives the stacked predictions (the same shapes).
     """
 
     def __init__(self, experiments, *, sd: float | None = None):
@@ -177,10 +181,11 @@ class CalibrationTask:
 class CalibrationOutcome:
     """Result of :func:`run_calibration` (natural units unless stated).
 
-    ``draws`` (n, p) posterior draws, ``u`` the same in the scaled box :math:`[0, 1]^p` (the space where every
-    prior is uniform), ``loglik`` (n, n_experiments) per-experiment log-likelihood of each draw,
-    ``ls_x``/``ls_chi2`` the least-squares optimum and its :math:`\\chi^2`, ``chi2_parts`` its split by
-    experiment, ``ls_starts`` (x, chi2) of every start, ``rhat``/``acceptance`` sampler diagnostics.
+    ``draws`` (n, p) posterior draws, ``u`` the same in the scaled box :math:`[0, 1]^p` (the space
+    where every prior is uniform), ``loglik`` (n, n_experiments) per-experiment log-likelihood of
+    each draw, ``ls_x``/``ls_chi2`` the least-squares optimum and its :math:`\\chi^2`,
+    ``chi2_parts`` its split by experiment, ``ls_starts`` (x, chi2) of every start,
+    ``rhat``/``acceptance`` sampler diagnostics.
     """
 
     label: str
@@ -201,6 +206,8 @@ class CalibrationOutcome:
     time_ls_s: float = 0.0
     time_mcmc_s: float = 0.0
     experiment_names: tuple = ()
+    sampler: str = "inference.sample_posterior"
+    n_dropped: int = 0
 
 
 def build_problem(experiments, *, specimen: tuple | None = None, sd: float | None = None) -> CalibrationProblem:
@@ -285,9 +292,17 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
         check_every=max(50, task.n_steps // 10),
     )
     t1 = time.perf_counter()
-    post = sample_posterior(problem, best.x, cov=best.cov, options=opts, rng=rng)
+    try:
+        post = sample_posterior(problem, best.x, cov=best.cov, options=opts, rng=rng)
+        draws4 = post.draws()  # (n_ens, n_draws, n_walkers, ndim)
+        out.acceptance = float(np.mean([e.acceptance.mean() for e in post.ensembles]))
+        out.n_failed = int(post.n_failed)
+    except ValueError:
+        # inference.sampling fails on a NaN autocorrelation time (a short chain in which some parameter
+        # never moved); fall back to plain emcee with the same start and length, second half kept
+        draws4, out.acceptance = _plain_emcee(problem, best, opts, task.n_steps, rng)
+        out.sampler = "plain emcee (fallback)"
     out.time_mcmc_s = time.perf_counter() - t1
-    draws4 = post.draws()  # (n_ens, n_draws, n_walkers, ndim)
     if draws4.shape[0] >= 2 and draws4.shape[1] >= 4:
         out.rhat = rhat_ensembles(draws4)
     flat = draws4.reshape(-1, draws4.shape[-1])
@@ -295,6 +310,47 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
     out.draws = flat[idx]
     out.u = problem.parameters.to_unit(out.draws)
     out.loglik = np.column_stack([ll.sum(axis=1) for ll in problem.log_likelihood_pointwise(out.draws)])
-    out.acceptance = float(np.mean([e.acceptance.mean() for e in post.ensembles]))
-    out.n_failed = int(post.n_failed)
     return out
+
+
+def drop_stuck_draws(outcome: CalibrationOutcome, *, p: float = 1e-6) -> CalibrationOutcome:
+    """Remove draws of stuck walkers: log-likelihood more than :math:`\\chi^2_{d, 1-p}/2` below the best draw.
+
+    Near the mode :math:`2(\\ell_{max} - \\ell) \\sim \\chi^2_d` (d sampled parameters), so with ``p
+    = 1e-6`` a legitimate draw is dropped with probability about 1e-6; an ensemble walker that
+    started in (or jumped to) a region a million times less likely and never moved is not a
+    posterior draw. Returns a copy with ``n_dropped`` set.
+    """
+    from scipy.stats import chi2
+
+    if outcome.draws is None:
+        return outcome
+    ll = outcome.loglik.sum(axis=1)
+    keep = 2 * (ll.max() - ll) <= chi2.ppf(1 - p, outcome.draws.shape[1])
+    out = replace(outcome)
+    out.draws, out.u, out.loglik = outcome.draws[keep], outcome.u[keep], outcome.loglik[keep]
+    out.n_dropped = int((~keep).sum())
+    return out
+
+
+def _plain_emcee(problem, best, opts, n_steps, rng):
+    """emcee without the automatic-length machinery: (n_ens, n_steps // 2, n_walkers, ndim) draws."""
+    import emcee
+
+    nw = opts.walkers(problem.ndim)
+    runs, acc = [], []
+    for _ in range(opts.n_ensembles):
+        p0 = initial_walkers(problem, best.x, nw, cov=best.cov, rng=rng)
+        sampler = emcee.EnsembleSampler(
+            nw,
+            problem.ndim,
+            problem.log_posterior_unconstrained,
+            vectorize=True,
+            moves=[(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)],
+        )
+        sampler.random_state = np.random.RandomState(int(rng.integers(2**32 - 1))).get_state()
+        sampler.run_mcmc(p0, n_steps)
+        z = sampler.get_chain(discard=n_steps // 2)
+        runs.append(problem.parameters.from_unconstrained(z.reshape(-1, z.shape[-1])).reshape(z.shape))
+        acc.append(float(np.mean(sampler.acceptance_fraction)))
+    return np.stack(runs), float(np.mean(acc))

@@ -1,15 +1,15 @@
 """Stereological uncertainty carried into the calibration: a "cut" posterior over the replicate table.
 
-The stereology gives bootstrap replicates :math:`\\xi_r` of the fixed inputs (fibre directions and volume
-fractions; ``data/stereology_replicates.csv``). The cut posterior (Plummer 2015,
+The stereology gives bootstrap replicates :math:`\\xi_r` of the fixed inputs (fibre directions and
+volume fractions; ``data/stereology_replicates.csv``). The cut posterior (Plummer 2015,
 doi:10.1007/s11222-014-9503-z) does not let the mechanical data update :math:`\\xi`; it averages the
 posteriors given each replicate,
 
 .. math:: p_{cut}(\\theta \\mid y) = \\frac1R \\sum_{r=1}^{R} p(\\theta \\mid y, \\xi_r),
 
-so each replicate is calibrated on its own (independent tasks, fanned out) and the draws are pooled in equal
-shares. The width of a central interval with and without the stereological uncertainty measures how much of
-the parameter uncertainty it explains.
+so each replicate is calibrated on its own (independent tasks, fanned out) and the draws are pooled
+in equal shares. The width of a central interval with and without the stereological uncertainty
+measures how much of the parameter uncertainty it explains.
 """
 
 from __future__ import annotations

@@ -35,6 +35,7 @@ import numpy as np
 from bayestissue._validation import ValidationError, check_positive
 
 __all__ = [
+    "ZERO_TOL",
     "scaled_sensitivities",
     "SensitivityAnalysis",
     "analyse_sensitivities",
@@ -43,6 +44,11 @@ __all__ = [
     "largest_identifiable_subsets",
     "informed_directions",
 ]
+
+
+#: A column whose norm is below ZERO_TOL times the largest column norm counts as zero sensitivity
+#: (finite-difference round-off would otherwise give it a random direction after normalisation).
+ZERO_TOL = 1e-8
 
 
 def scaled_sensitivities(
@@ -111,7 +117,7 @@ def collinearity_index(S: np.ndarray, subset: Sequence[int] | None = None) -> fl
         raise ValidationError("subset", cols, "at least one column index")
     Sk = S[:, cols]
     norms = np.linalg.norm(Sk, axis=0)
-    if np.any(norms == 0):
+    if np.any(norms <= ZERO_TOL * max(np.linalg.norm(S, axis=0).max(), 1e-300)):
         return float("inf")
     Sn = Sk / norms
     lam = np.linalg.eigvalsh(Sn.T @ Sn)[0]
@@ -135,6 +141,7 @@ def collinearity_table(
     if not 1 <= min_size <= max_size <= n:
         raise ValidationError("min_size/max_size", (min_size, max_size), f"1 <= min_size <= max_size <= {n}")
     norms = np.linalg.norm(S, axis=0)
+    norms = np.where(norms <= ZERO_TOL * max(norms.max(), 1e-300), 0.0, norms)
     Sn = np.divide(S, norms, out=np.zeros_like(S), where=norms > 0)
     G = Sn.T @ Sn
     out = []
@@ -192,7 +199,8 @@ class SensitivityAnalysis:
     directions : (n_par, n_par) rows are the right singular vectors (parameter combinations in log
         space).
     delta_msqr : (n_par,) Brun's importance measure.
-    std_error_log : (n_par,) Gauss-Newton standard errors of log theta (inf where unidentifiable).
+    std_error_log : (n_par,) Gauss-Newton standard errors of log theta (inf without sensitivity, about
+        1e6 / s_max in an exactly degenerate combination).
     collinearity : list of (subset of names, gamma).
     threshold : critical collinearity index.
     largest_subsets : largest subsets with gamma < threshold (names).
@@ -243,15 +251,17 @@ def analyse_sensitivities(
     if S.ndim != 2 or S.shape[1] != len(names):
         raise ValidationError("S", S.shape, f"shape (n_obs, {len(names)}) matching names")
     _, s, vt = np.linalg.svd(S, full_matrices=False)
-    F = S.T @ S
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cov = np.linalg.pinv(F, rcond=1e-12, hermitian=True)
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
     norms = np.linalg.norm(S, axis=0)
-    # a parameter with a component in the (numerical) null space of S has no finite standard error
-    null = vt[s <= 1e-8 * max(s[0], 1e-300)]
-    weak = np.any(np.abs(null) > 1e-6, axis=0) if null.size else np.zeros(len(names), bool)
-    se = np.where(weak, np.inf, se)
+    norms = np.where(norms <= ZERO_TOL * max(norms.max(), 1e-300), 0.0, norms)
+    # Gauss-Newton sd of log theta. A zero column has no information (inf); exactly degenerate combinations
+    # get a sd of about 1e6 / s_max from a tiny ridge (1e-12 s_max^2) instead of pinv's silent zero.
+    live = norms > 0
+    se = np.full(len(names), np.inf)
+    if np.any(live):
+        Fl = S[:, live].T @ S[:, live]
+        ridge = 1e-12 * max(s[0] ** 2, 1e-300)
+        cov = np.linalg.inv(Fl + ridge * np.eye(Fl.shape[0]))
+        se[live] = np.sqrt(np.clip(np.diag(cov), 0, None))
     table = collinearity_table(S, max_size=max_size)
     singles = [j for j in range(len(names)) if norms[j] > 0]
     best = largest_identifiable_subsets(table, threshold=threshold, singles=singles)

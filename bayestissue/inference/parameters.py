@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 from scipy.special import expit, log_expit, logit
@@ -140,7 +141,7 @@ class ParameterSet:
         """All parameter names, sampled and fixed, in order."""
         return tuple(s.name for s in self.specs)
 
-    @property
+    @cached_property
     def sampled(self) -> tuple[ParameterSpec, ...]:
         return tuple(s for s in self.specs if not s.fixed)
 
@@ -156,15 +157,37 @@ class ParameterSet:
     def n_sampled(self) -> int:
         return len(self.sampled)
 
+    @cached_property
+    def _lo(self) -> np.ndarray:
+        return np.array([s.lower for s in self.sampled])
+
+    @cached_property
+    def _hi(self) -> np.ndarray:
+        return np.array([s.upper for s in self.sampled])
+
     @property
     def lower(self) -> np.ndarray:
         """Lower bounds of the sampled parameters."""
-        return np.array([s.lower for s in self.sampled])
+        return self._lo.copy()
 
     @property
     def upper(self) -> np.ndarray:
         """Upper bounds of the sampled parameters."""
-        return np.array([s.upper for s in self.sampled])
+        return self._hi.copy()
+
+    @cached_property
+    def _prior_consts(self) -> tuple[np.ndarray, np.ndarray]:
+        """(is_loguniform, log-normalising constant) per sampled parameter."""
+        is_lu = np.array([s.prior == "loguniform" for s in self.sampled])
+        const = np.array(
+            [
+                -math.log(math.log(s.upper / s.lower))
+                if s.prior == "loguniform"
+                else -math.log(s.upper - s.lower)
+                for s in self.sampled
+            ]
+        )
+        return is_lu, const
 
     @property
     def initial(self) -> np.ndarray:
@@ -272,13 +295,17 @@ class ParameterSet:
                 j += 1
         return out
 
-    def _g(self):
-        """Per sampled parameter: (is_log, g(a), g(b))."""
+    @cached_property
+    def _gcache(self):
         is_log = np.array([s.scale == "log" for s in self.sampled])
-        lo, hi = self.lower, self.upper
+        lo, hi = self._lo, self._hi
         ga = np.where(is_log, np.log(np.where(is_log, lo, 1.0)), lo)
         gb = np.where(is_log, np.log(np.where(is_log, hi, 1.0)), hi)
         return is_log, ga, gb
+
+    def _g(self):
+        """Per sampled parameter: (is_log, g(a), g(b))."""
+        return self._gcache
 
     def _to_unit(self, theta) -> np.ndarray:
         is_log, ga, gb = self._g()
@@ -290,7 +317,7 @@ class ParameterSet:
         is_log, ga, gb = self._g()
         g = ga + np.asarray(u, dtype=float) * (gb - ga)
         x = np.where(is_log, np.exp(np.where(is_log, g, 0.0)), g)
-        return np.clip(x, self.lower, self.upper)
+        return np.clip(x, self._lo, self._hi)
 
     def to_unit(self, theta) -> np.ndarray:
         """Scaled box coordinates :math:`u \\in [0, 1]` (linear or log scale per parameter)."""
@@ -323,10 +350,12 @@ class ParameterSet:
     def log_prior(self, theta) -> np.ndarray:
         """Sum of the prior log-densities of the sampled parameters; ``-inf`` outside the box."""
         theta = self._check_theta(theta)
-        total = np.zeros(theta.shape[:-1])
-        for j, s in enumerate(self.sampled):
-            total = total + s.prior_dist.logpdf(theta[..., j])
-        return total
+        is_lu, const = self._prior_consts
+        inside = np.all((theta >= self._lo) & (theta <= self._hi), axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            logx = np.log(np.where(is_lu, np.abs(theta), 1.0))
+        total = np.sum(const - np.where(is_lu, logx, 0.0), axis=-1)
+        return np.where(inside, total, -np.inf)
 
     def log_prior_unconstrained(self, z) -> np.ndarray:
         """Prior log-density of ``z``: :math:`\\log p(x(z)) + \\log|dx/dz|`."""

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import emcee
 import numpy as np
-from emcee.autocorr import integrated_time
+from emcee.autocorr import auto_window, function_1d
 
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference.problem import CalibrationProblem
@@ -81,6 +81,8 @@ class SamplerOptions:
     tau_factor : required length in units of the largest autocorrelation time (50).
     tau_rtol : required relative change of tau between checks (0.01).
     scatter : multiplier of the Laplace sd for the initial walkers.
+    prune_rounds, prune_steps : discarded pre-run in which stuck walkers are moved onto good ones
+        (``prune_rounds`` chunks of ``prune_steps``; 0 disables it).
     """
 
     n_walkers: int | None = None
@@ -93,10 +95,16 @@ class SamplerOptions:
     tau_factor: float = 50.0
     tau_rtol: float = 0.01
     scatter: float = 1.0
+    prune_rounds: int = 3
+    prune_steps: int = 200
 
     def __post_init__(self):
         if self.moves not in MOVES:
             raise ValidationError("moves", self.moves, f"one of {sorted(MOVES)}")
+        for name in ("prune_rounds", "prune_steps"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | np.integer) and v >= 0):
+                raise ValidationError(name, v, "an integer >= 0")
         for name in ("n_ensembles", "max_steps", "check_every"):
             v = getattr(self, name)
             if not (isinstance(v, int | np.integer) and v >= 1):
@@ -126,7 +134,7 @@ def initial_walkers(
     cov=None,
     scatter: float = 1.0,
     nuisance_sd_z: float = 0.1,
-    max_sd_z: float = 1.0,
+    max_sd_z: float = 0.3,
     min_sd_z: float = 1e-4,
     rng=None,
 ) -> np.ndarray:
@@ -229,8 +237,59 @@ class EnsembleResult:
         return self.chain_z[start:], self.log_prob[start:]
 
 
+def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
+    """Pre-run with walker pruning; returns the production start.
+
+    ``options.prune_rounds`` chunks of ``options.prune_steps`` steps; after each, walkers whose
+    log-posterior is more than :math:`d/2 + 5\\sqrt{d/2} + 5` below the best walker (far outside the
+    :math:`\\chi^2_d` range of a converged ensemble) are moved onto randomly chosen good walkers with a
+    small jitter. Stuck walkers otherwise stay stuck for a very long time under ensemble moves. This
+    phase is discarded; it is deterministic given ``seed``.
+    """
+    if options.prune_rounds == 0 or options.prune_steps == 0:
+        return p0
+    nw, ndim = p0.shape
+    rs = np.random.RandomState((seed + 1) % (2**32 - 1))
+    sampler = emcee.EnsembleSampler(
+        nw, ndim, problem.log_posterior_unconstrained, vectorize=True, moves=MOVES[options.moves]()
+    )
+    sampler.random_state = rs.get_state()
+    state = sampler.run_mcmc(p0, options.prune_steps, progress=False)
+    delta = ndim / 2 + 5 * np.sqrt(ndim / 2) + 5
+    for _ in range(options.prune_rounds - 1):
+        coords, lp = state.coords.copy(), state.log_prob.copy()
+        good = lp >= lp.max() - delta
+        bad = np.flatnonzero(~good)
+        if bad.size:
+            src = rs.choice(np.flatnonzero(good), bad.size)
+            spread = coords[good].std(axis=0) + 1e-8
+            coords[bad] = coords[src] + 1e-2 * spread * rs.standard_normal((bad.size, ndim))
+            lp[bad] = problem.log_posterior_unconstrained(coords[bad])
+        state = emcee.State(coords, log_prob=lp, random_state=sampler.random_state)
+        state = sampler.run_mcmc(state, options.prune_steps, progress=False)
+    return state.coords
+
+
 def _tau(chain: np.ndarray) -> np.ndarray:
-    return integrated_time(chain, c=5, tol=0, quiet=True)
+    """emcee's integrated autocorrelation time (walker-averaged autocorrelation function, window
+    ``c = 5``), skipping walkers that have not moved (their autocorrelation is undefined); a parameter
+    no walker has moved in gets ``tau = n_steps``."""
+    n, nw, nd = chain.shape
+    tau = np.empty(nd)
+    for d in range(nd):
+        f = np.zeros(n)
+        k = 0
+        for w in range(nw):
+            x = chain[:, w, d]
+            if np.ptp(x) > 0:
+                f += function_1d(x)
+                k += 1
+        if k == 0:
+            tau[d] = float(n)
+            continue
+        taus = 2.0 * np.cumsum(f / k) - 1.0
+        tau[d] = max(taus[auto_window(taus, 5)], 1.0)
+    return tau
 
 
 def run_ensemble(
@@ -281,12 +340,13 @@ def run_ensemble(
         moves=MOVES[options.moves](),
         backend=backend,
     )
+    t0 = time.perf_counter()
     if resumed_at == 0:
+        p0 = _prune_burn_in(problem, p0, options, seed)
         sampler.random_state = np.random.RandomState(seed).get_state()
         state = p0
     else:
         state = None
-    t0 = time.perf_counter()
     n = sampler.iteration
     taus, checks = [], []
     converged = False

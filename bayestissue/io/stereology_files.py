@@ -1,49 +1,38 @@
 """Stereology files: point counts, line systems (with a TOML sidecar) and the replicate table.
 
 All tables are CSV with ``# key: value`` comment lines (:mod:`bayestissue.io.tables`); synthetic
-files say so in
-a ``# synthetic:`` line.
+files say so in a ``# synthetic:`` line.
 
 Point counts (``data/stereology_counts.csv``)
     One row per sampled section. ``section`` (position in the series, 0-based), one
-    ``<component>_points``
-    column per component (points of the grid hitting it; e.g. ``smc_points, ecm_points,
-    other_points``),
-    optional ``block`` (label of an independent unit: tissue block or animal). Comment keys:
-    ``excluded``
-    (comma-separated components outside the reference space, default ``other`` and ``cavity``), ``grid_spacing_um``
-    (optional), ``n_series`` (sections in the whole series), ``period``, ``nugget_shape_factor`` (profile
-    b / sqrt(a)) and ``nugget_profiles_per_section`` (for the point-counting noise of the CE).
+    ``<component>_points`` column per component (points of the grid hitting it; e.g. ``smc_points,
+    ecm_points, other_points``), optional ``block`` (label of an independent unit: tissue block or
+    animal). Comment keys: ``excluded`` (comma-separated components outside the reference space,
+    default ``other`` and ``cavity``), ``grid_spacing_um`` (optional), ``n_series`` (sections in the
+    whole series), ``period``, ``nugget_shape_factor`` (profile b / sqrt(a)) and
+    ``nugget_profiles_per_section`` (for the point-counting noise of the CE).
 
 Line system (``data/stereology_lines.csv`` + ``data/stereology_lines.toml``)
     One row per straight segment: ``cell`` (id of the traced cell), ``x0_um, y0_um, z0_um, x1_um,
-    y1_um,
-    z1_um`` (end points, body frame: x loading/longitudinal, y top-down, z the rest). A polyline is
-    several rows
-    with the same ``cell``. The sidecar (same stem, ``.toml``) gives ``volume_um3`` (probed
-    volume), or
-    ``extent_x_um``, ``extent_y_um``, ``n_sections`` and ``section_thickness_um`` from which it is
-    computed.
+    y1_um, z1_um`` (end points, body frame: x loading/longitudinal, y top-down, z the rest). A
+    polyline is several rows with the same ``cell``. The sidecar (same stem, ``.toml``) gives
+    ``volume_um3`` (probed volume), or ``extent_x_um``, ``extent_y_um``, ``n_sections`` and
+    ``section_thickness_um`` from which it is computed.
 
 Replicate table (``data/stereology_replicates.csv``): the contract with the mechanics
     One row per bootstrap replicate, columns in this order:
 
     - ``replicate``: 1 ... B.
     - ``phi_smc``, ``phi_ecm``: volume fractions of SMC and ECM in the reference space (tissue
-      without
-      haemocoelic cavities), drawn jointly, each in [0, 1], ``phi_smc + phi_ecm = 1``.
+      without haemocoelic cavities), drawn jointly, each in [0, 1], ``phi_smc + phi_ecm = 1``.
     - ``phi_matrix``: matrix volume fraction of the mechanics, equal to ``phi_ecm``.
     - ``phi_fibre1``, ``phi_fibre2``, ``phi_fibre3``: the SMC fraction split between the fibre
-      families,
-      summing to ``phi_smc``; the split method is in the ``# split:`` comment line (``paper``:
-      equal thirds;
-      ``length``: the families' length shares).
+      families, summing to ``phi_smc``; the split method is in the ``# split:`` comment line
+      (``paper``: equal thirds; ``length``: the families' length shares).
     - ``v1_x, v1_y, v1_z, v2_x, ..., v3_z``: unit fibre directions; family k is matched to the
-      paper's v_k
-      (v1 = [0, 1, 0] along y; v2 = [0.9369, 0.3420, 0], x tilted toward +y; v3 = [0.9369, -0.3420,
-      0], x
-      tilted toward -y) by an optimal axial assignment, with the sign chosen so that v_k .
-      paper_v_k >= 0.
+      paper's v_k (v1 = [0, 1, 0] along y; v2 = [0.9369, 0.3420, 0], x tilted toward +y; v3 =
+      [0.9369, -0.3420, 0], x tilted toward -y) by an optimal axial assignment, with the sign chosen
+      so that v_k . paper_v_k >= 0.
 
     The mechanics takes ``phi_matrix``, ``phi_fibre1..3`` and ``v1..v3`` (:func:`read_replicates`).
 """
@@ -88,10 +77,8 @@ def read_point_counts(path: str | Path) -> dict:
     Returns
     -------
     dict with ``section`` (n,) int, ``counts`` (n, K) float, ``components`` (tuple of K names, from
-    the
-    ``<name>_points`` columns), ``excluded`` (tuple), ``grid_spacing_um`` (float or None),
-    ``block`` ((n,)
-    or None) and ``meta`` (the comment lines).
+    the ``<name>_points`` columns), ``excluded`` (tuple), ``grid_spacing_um`` (float or None),
+    ``block`` ((n,) or None) and ``meta`` (the comment lines).
     """
     cols, meta = read_table(path, required=("section",))
     names = [c for c in cols if c.endswith("_points")]
@@ -125,9 +112,7 @@ def read_point_counts(path: str | Path) -> dict:
     }
 
 
-def write_point_counts(
-    path: str | Path, section, counts, components, *, block=None, meta: dict | None = None
-) -> Path:
+def write_point_counts(path: str | Path, section, counts, components, *, block=None, meta: dict | None = None) -> Path:
     """Write a point-count table (columns ``section``, ``<component>_points``..., optional
     ``block``)."""
     counts = np.asarray(counts)
@@ -162,15 +147,8 @@ def read_line_system(path: str | Path) -> dict:
         with sp.open("rb") as fh:
             side = tomllib.load(fh)
     volume = side.get("volume_um3", meta.get("volume_um3"))
-    if volume is None and all(
-        k in side for k in ("extent_x_um", "extent_y_um", "n_sections", "section_thickness_um")
-    ):
-        volume = (
-            side["extent_x_um"]
-            * side["extent_y_um"]
-            * side["n_sections"]
-            * side["section_thickness_um"]
-        )
+    if volume is None and all(k in side for k in ("extent_x_um", "extent_y_um", "n_sections", "section_thickness_um")):
+        volume = side["extent_x_um"] * side["extent_y_um"] * side["n_sections"] * side["section_thickness_um"]
     cell = cols["cell"]
     if cell.dtype.kind == "f" and np.all(cell == np.round(cell)):
         cell = cell.astype(int)
@@ -216,9 +194,7 @@ def write_replicates(path: str | Path, columns: dict, *, meta: dict | None = Non
     """Write the replicate table (columns exactly :data:`REPLICATE_COLUMNS`, in order)."""
     missing = [c for c in REPLICATE_COLUMNS if c not in columns]
     if missing:
-        raise ValidationError(
-            "replicate columns", sorted(columns), f"all of {list(REPLICATE_COLUMNS)}"
-        )
+        raise ValidationError("replicate columns", sorted(columns), f"all of {list(REPLICATE_COLUMNS)}")
     return write_table(path, {c: columns[c] for c in REPLICATE_COLUMNS}, meta=meta)
 
 
@@ -228,8 +204,7 @@ def read_replicates(path: str | Path) -> dict:
     Returns
     -------
     dict with ``phi_matrix`` (n,), ``phi_fibres`` (n, 3), ``directions`` (n, 3, 3) (row k = unit
-    v_k),
-    ``phi_smc`` (n,), ``phi_ecm`` (n,), ``split`` (str) and ``meta``.
+    v_k), ``phi_smc`` (n,), ``phi_ecm`` (n,), ``split`` (str) and ``meta``.
 
     Raises
     ------
@@ -245,9 +220,7 @@ def read_replicates(path: str | Path) -> dict:
     norm = np.linalg.norm(D, axis=2)
     if np.any(np.abs(norm - 1) > 1e-6):
         i, k = np.argwhere(np.abs(norm - 1) > 1e-6)[0]
-        raise ValidationError(
-            f"v{k + 1} of replicate row {i + 1}", D[i, k].tolist(), "a unit vector"
-        )
+        raise ValidationError(f"v{k + 1} of replicate row {i + 1}", D[i, k].tolist(), "a unit vector")
     return {
         "phi_matrix": cols["phi_matrix"],
         "phi_fibres": phi_f,

@@ -39,12 +39,11 @@ def _grid(n, ncols=4, size=(3.2, 2.6)):
     return fig, axes.ravel()
 
 
-def plot_profiles(
-    profiles: Mapping[str, Sequence], names: Sequence[str], *, threshold: float = 3.84, ymax=12.0
-):
+def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, threshold: float = 3.84, ymax=12.0):
     """Profile likelihoods :math:`\\Delta\\chi^2` per parameter (one panel each), one curve per analysis.
 
-    ``profiles`` maps a label (``"T1"``) to a list of ProfileResult (any order; matched by ``name``).
+    ``profiles`` maps a label (``"T1"``) to a list of ProfileResult (any order; matched by
+    ``name``).
     """
     fig, axes = _grid(len(names))
     for j, name in enumerate(names):
@@ -53,8 +52,14 @@ def plot_profiles(
             pr = next((p for p in prs if p is not None and p.name == name), None)
             if pr is None:
                 continue
-            ax.plot(pr.values, np.clip(pr.delta_chi2, -1, ymax), ".-", ms=3, color=_colour(label, k),
-                    label=f"{label}: {pr.classification.split()[0]}")
+            ax.plot(
+                pr.values,
+                np.clip(pr.delta_chi2, -1, ymax),
+                ".-",
+                ms=3,
+                color=_colour(label, k),
+                label=f"{label}: {pr.classification.split()[0]}",
+            )
             ax.plot([pr.theta_hat], [0], "o", color=_colour(label, k), ms=4)
         ax.axhline(threshold, color="k", lw=0.8, ls="--")
         ax.set_xscale("log")
@@ -123,16 +128,22 @@ def plot_contraction(values: Mapping[str, np.ndarray], names: Sequence[str], *, 
     return ax.figure
 
 
-def plot_marginals_overlay(
-    draws: Mapping[str, np.ndarray], names: Sequence[str], *, bins=40, xlabel="scaled box u"
-):
+def plot_marginals_overlay(draws: Mapping[str, np.ndarray], names: Sequence[str], *, bins=40, xlabel="scaled box u"):
     """Marginal histograms of several posteriors overlaid (one panel per parameter)."""
     fig, axes = _grid(len(names))
     for j, name in enumerate(names):
         ax = axes[j]
         for k, (label, d) in enumerate(draws.items()):
-            ax.hist(d[:, j], bins=bins, range=(0, 1), density=True, histtype="stepfilled", alpha=0.35,
-                    color=_colour(label, k), label=label)
+            ax.hist(
+                d[:, j],
+                bins=bins,
+                range=(0, 1),
+                density=True,
+                histtype="stepfilled",
+                alpha=0.35,
+                color=_colour(label, k),
+                label=label,
+            )
         ax.axhline(1.0, color="k", lw=0.6, ls=":")
         ax.set_title(name, fontsize=9)
         ax.set_xlim(0, 1)
@@ -153,9 +164,18 @@ def plot_corner_overlay(draws: Mapping[str, np.ndarray], names: Sequence[str]):
     for k, (label, d) in enumerate(draws.items()):
         c = _colour(label, k)
         fig = corner.corner(
-            d, labels=list(names), range=[(0, 1)] * d.shape[1], color=c, fig=fig, bins=25,
-            plot_datapoints=False, plot_density=False, fill_contours=False, levels=(0.5, 0.9),
-            hist_kwargs={"density": True}, label_kwargs={"fontsize": 8},
+            d,
+            labels=list(names),
+            range=[(0, 1)] * d.shape[1],
+            color=c,
+            fig=fig,
+            bins=25,
+            plot_datapoints=False,
+            plot_density=False,
+            fill_contours=False,
+            levels=(0.5, 0.9),
+            hist_kwargs={"density": True},
+            label_kwargs={"fontsize": 8},
         )
         handles.append(plt.Line2D([], [], color=c, label=label))
     fig.legend(handles=handles, loc="upper right", fontsize=12)
@@ -181,7 +201,8 @@ def plot_cross_prediction(time_s, y_obs, band, median, *, title="", coverage=Non
 def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], *, ax=None, marks=None):
     """Gauss-Newton sd of log-parameters against the loading-rate factor (log-log), one line per parameter.
 
-    ``marks`` optionally maps a parameter to a bool per rate (profile says identifiable: filled marker).
+    ``marks`` optionally maps a parameter to a bool per rate (profile says identifiable: filled
+    marker).
     """
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4))
@@ -196,8 +217,9 @@ def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], *, ax=None, 
     ax.axvline(1.0, color="grey", lw=0.8, ls=":")
     ax.set_xlabel("ramp rate / T2 rate (3.24 kPa/min)")
     ax.set_ylabel("sd of log-parameter (Gauss-Newton)")
-    ax.set_title("Designed T2-like ramps, data simulated from the T1 posterior\n"
-                 "filled: profile closed on both sides", fontsize=9)
+    ax.set_title(
+        "Designed T2-like ramps, data simulated from the T1 posterior\nfilled: profile closed on both sides", fontsize=9
+    )
     ax.legend(fontsize=7)
     return ax.figure
 

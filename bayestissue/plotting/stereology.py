@@ -1,7 +1,9 @@
 """Figures of the stereology: rose histograms (paper Fig. 6), 3-D rose (Fig. 7), Lambert plots of the
-preferential directions with bootstrap cones (Fig. 8), and CE predictors against the truth on a known object.
+preferential directions with bootstrap cones (Fig. 8), and CE predictors against the truth on a
+known object.
 
-Every function takes ``ax=None`` (a new figure is made) and returns the figure; nothing is saved or shown.
+Every function takes ``ax=None`` (a new figure is made) and returns the figure; nothing is saved or
+shown.
 """
 
 from __future__ import annotations
@@ -25,9 +27,9 @@ _RANK_STYLES = ("-", "--", "-.")
 def plot_rose_histogram(rose: EqualAreaRose, *, top: list[dict] | None = None, ax=None):
     """Total line length per equal-area cell (paper Fig. 6) on axes of azimuth and sin(elevation).
 
-    With sin(elevation) on the vertical axis every cell of the n x n partition is a rectangle of the same
-    area, so the colour is directly comparable between cells. ``top``: preferential directions to mark
-    (:func:`bayestissue.stereology.rose.preferential_directions`).
+    With sin(elevation) on the vertical axis every cell of the n x n partition is a rectangle of the
+    same area, so the colour is directly comparable between cells. ``top``: preferential directions
+    to mark (:func:`bayestissue.stereology.rose.preferential_directions`).
     """
     fig, ax = _fig_ax(ax)
     n = rose.n
@@ -52,7 +54,8 @@ def plot_rose_histogram(rose: EqualAreaRose, *, top: list[dict] | None = None, a
 
 
 def plot_rose_3d(rose: EqualAreaRose, *, ax=None, sub: int = 4):
-    """Spatial rose (paper Fig. 7): the upper hemisphere with radius proportional to the length per cell."""
+    """Spatial rose (paper Fig. 7): radius proportional to the length per cell, drawn for the upper
+    hemisphere and mirrored through the origin (axes are undirected)."""
     if ax is None:
         fig = plt.figure(figsize=(6, 5))
         ax = fig.add_subplot(projection="3d")
@@ -70,12 +73,12 @@ def plot_rose_3d(rose: EqualAreaRose, *, ax=None, sub: int = 4):
     S = np.sqrt(np.clip(1 - Z**2, 0, None))
     X, Y, ZZ = Rc * S * np.cos(PH), Rc * S * np.sin(PH), Rc * Z
     colors = plt.cm.viridis(L[band, mer])
-    ax.plot_surface(X, Y, ZZ, facecolors=colors, rstride=1, cstride=1, linewidth=0, shade=False)
-    lim = 1.0
-    ax.set_xlim(-lim, lim)
-    ax.set_ylim(-lim, lim)
-    ax.set_zlim(0, lim)
-    ax.set_box_aspect((2, 2, 1))
+    for sgn in (1.0, -1.0):  # the axis d and -d: the rose is symmetric through the origin
+        ax.plot_surface(sgn * X, sgn * Y, sgn * ZZ, facecolors=colors, rstride=1, cstride=1, linewidth=0, shade=False)
+    ax.set_xlim(-1, 1)
+    ax.set_ylim(-1, 1)
+    ax.set_zlim(-0.6, 0.6)
+    ax.set_box_aspect((2, 2, 1.2))
     ax.set_xlabel("x (longitudinal)")
     ax.set_ylabel("y (top-down)")
     ax.set_zlabel("z")
@@ -90,11 +93,17 @@ def _lambert_frame(ax):
         ax.plot(r * np.cos(t), r * np.sin(t), color="0.8", lw=0.8, zorder=0)
         ax.text(r * np.cos(np.radians(-80)), r * np.sin(np.radians(-80)), f"el {el}", fontsize=7, color="0.5")
     for a in range(0, 360, 30):
-        ax.plot([0, np.sqrt(2) * np.cos(np.radians(a))], [0, np.sqrt(2) * np.sin(np.radians(a))], color="0.9", lw=0.6, zorder=0)
+        ax.plot(
+            [0, np.sqrt(2) * np.cos(np.radians(a))],
+            [0, np.sqrt(2) * np.sin(np.radians(a))],
+            color="0.9",
+            lw=0.6,
+            zorder=0,
+        )
         ax.text(1.5 * np.cos(np.radians(a)), 1.5 * np.sin(np.radians(a)), f"{a}", ha="center", va="center", fontsize=7)
     ax.set_aspect("equal")
-    ax.set_xlim(-1.65, 1.65)
-    ax.set_ylim(-1.65, 1.65)
+    ax.set_xlim(-1.7, 1.7)
+    ax.set_ylim(-1.7, 1.7)
     ax.axis("off")
 
 
@@ -110,51 +119,61 @@ def _cone_outline(axis, half_angle_deg, m=180):
     return c * a + s * (np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2)
 
 
-def plot_lambert_directions(
-    directions_by_n: dict, *, cones_by_n: dict | None = None, reference=None, ax=None
-):
+def plot_lambert_directions(directions_by_n: dict, *, cones_by_n: dict | None = None, reference=None, ax=None):
     """Preferential directions for several n on a Lambert equal-area plot about the pole z (paper Fig. 8).
 
-    The rim is elevation 0, the centre the pole; azimuth is the polar angle. Ranks 1, 2, 3 are drawn as solid,
-    dashed and dash-dotted lines from the centre (the paper's convention), colours distinguish n. A cone that
-    crosses the equator continues on the opposite side of the rim (axes are undirected).
+    The rim is elevation 0, the centre the pole; azimuth is the polar angle. Ranks 1, 2, 3 are drawn
+    as solid, dashed and dash-dotted lines from the centre (the paper's convention), colours
+    distinguish n. A cone that crosses the equator continues on the opposite side of the rim (axes
+    are undirected).
 
     Parameters
     ----------
     directions_by_n : {n or label: list of dicts with ``vector`` and ``rank``} (or (k, 3) arrays).
     cones_by_n : {n: (k,) cone half-angles in degrees}, same keys, optional.
-    reference : optional (k, 3) axes to mark with crosses (e.g. the paper's v1, v2, v3).
+    reference : optional (k, 3) axes to mark with crosses (e.g. the paper's v1, v2, v3); each plotted axis
+        is then signed like its nearest reference, so axes just below the equator are drawn just
+        outside the rim (full-sphere Lambert, r up to 2) instead of jumping to the opposite side.
     """
     fig, ax = _fig_ax(ax, figsize=(6.2, 6))
     _lambert_frame(ax)
+    ref = None if reference is None else np.asarray(reference, dtype=float)
     colors = plt.cm.plasma(np.linspace(0, 0.85, max(len(directions_by_n), 1)))
     for (key, tops), col in zip(directions_by_n.items(), colors, strict=True):
-        vecs = np.array([c["vector"] if isinstance(c, dict) else c for c in tops])
-        xy = lambert_project(vecs)
+        vecs = to_upper_hemisphere(np.array([c["vector"] if isinstance(c, dict) else c for c in tops]))
+        if ref is not None:  # sign each axis like its nearest reference: no jump across the rim
+            near = np.argmax(np.abs(vecs @ ref.T), axis=1)
+            vecs = vecs * np.sign(np.sum(vecs * ref[near], axis=1) + 1e-300)[:, None]
+        xy = lambert_project(vecs, upper=ref is None)
         for r, (v, p) in enumerate(zip(vecs, xy, strict=True)):
             ls = _RANK_STYLES[r % 3]
             ax.plot([0, p[0]], [0, p[1]], ls=ls, color=col, lw=1.2, label=f"{key}" if r == 0 else None)
             ax.plot(*p, "o", color=col, ms=4)
             if cones_by_n is not None and key in cones_by_n:
-                pts = lambert_project(to_upper_hemisphere(_cone_outline(v, cones_by_n[key][r])))
+                out = _cone_outline(v, cones_by_n[key][r])
+                pts = lambert_project(out if ref is not None else to_upper_hemisphere(out), upper=False)
                 jump = np.r_[False, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 0.3]
                 seg = np.cumsum(jump)
                 for s in np.unique(seg):
                     q = pts[seg == s]
                     ax.plot(q[:, 0], q[:, 1], color=col, lw=0.8, alpha=0.8)
-    if reference is not None:
-        xy = lambert_project(np.asarray(reference, dtype=float))
+    if ref is not None:
+        xy = lambert_project(ref, upper=False)
         ax.plot(xy[:, 0], xy[:, 1], "kx", ms=9, mew=2, label="paper v1-v3")
     ax.legend(loc="upper left", fontsize=7, title="n", title_fontsize=7, frameon=False, bbox_to_anchor=(-0.02, 1.02))
-    ax.set_title("preferential directions, Lambert equal-area about z\n(rim: elevation 0; rank 1 solid, 2 dashed, 3 dash-dotted)", fontsize=9)
+    ax.set_title(
+        "Lambert equal-area about z (rim: elevation 0)\nrank/family 1 solid, 2 dashed, 3 dash-dotted",
+        fontsize=9,
+        pad=14,
+    )
     return fig
 
 
 def plot_ce_check(results: list[dict], *, x: str = "n_sections", ax=None, title: str | None = None):
     """CE predictors against the true spread over random starts on a known object.
 
-    ``results``: dicts from :func:`bayestissue.stereology.known_object.ce_check` (one per spacing), with the
-    key ``x`` for the horizontal axis.
+    ``results``: dicts from :func:`bayestissue.stereology.known_object.ce_check` (one per spacing),
+    with the key ``x`` for the horizontal axis.
     """
     fig, ax = _fig_ax(ax)
     xs = np.array([r[x] for r in results])

@@ -3,11 +3,10 @@ directions.
 
 Modules: :mod:`~.sections` (SURS, point counts, V_V and its CE), :mod:`~.lines` (line systems, L_V),
 :mod:`~.rose` (equal-area rose of directions, Lambert projection), :mod:`~.axial` (orientation
-tensor, Watson
-distribution and mixtures), :mod:`~.uncertainty` (bootstraps done right for systematic samples),
-:mod:`~.replicates` (the joint replicate table for the mechanics), :mod:`~.known_object` (an
-analytic phantom for checking CE predictors). Synthetic tissue phantoms and the
-micrograph pipeline live in separate modules of this package.
+tensor, Watson distribution and mixtures), :mod:`~.uncertainty` (bootstraps done right for
+systematic samples), :mod:`~.replicates` (the joint replicate table for the mechanics),
+:mod:`~.known_object` (an analytic phantom for checking CE predictors). Synthetic tissue phantoms
+and the micrograph pipeline live in separate modules of this package.
 """
 
 from bayestissue.stereology.axial import (

@@ -2,9 +2,8 @@ r"""Axial (undirected) statistics: orientation tensor, Watson distribution and W
 fitted by EM.
 
 Lines are axes: :math:`\pm d` are the same direction. These bin-free estimators complement the
-equal-area rose
-of :mod:`bayestissue.stereology.rose` (paper Section 2.5.3), whose answer depends on the number of
-cells.
+equal-area rose of :mod:`bayestissue.stereology.rose` (paper Section 2.5.3), whose answer depends on
+the number of cells.
 
 Watson distribution on the unit sphere :math:`S^2` (Fisher, Lewis & Embleton 1987, section 4.4):
 
@@ -12,8 +11,8 @@ Watson distribution on the unit sphere :math:`S^2` (Fisher, Lewis & Embleton 198
 
 with :math:`M` Kummer's confluent hypergeometric function. For :math:`\kappa > 0`,
 :math:`M(\tfrac12,\tfrac32,\kappa) = e^{\kappa} D(\sqrt\kappa)/\sqrt\kappa` with :math:`D` Dawson's
-integral,
-which stays finite in logarithms for any :math:`\kappa` (``hyp1f1`` overflows beyond about 700).
+integral, which stays finite in logarithms for any :math:`\kappa` (``hyp1f1`` overflows beyond about
+700).
 
 References
 ----------
@@ -69,9 +68,7 @@ def _weights(w, n: int) -> np.ndarray:
         return np.ones(n)
     w = np.asarray(w, dtype=float)
     if w.shape != (n,) or not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
-        raise ValidationError(
-            "weights", f"shape {w.shape}", f"({n},) finite weights >= 0, not all zero"
-        )
+        raise ValidationError("weights", f"shape {w.shape}", f"({n},) finite weights >= 0, not all zero")
     return w
 
 
@@ -143,9 +140,8 @@ def watson_mean_t2(kappa) -> np.ndarray:
     r""":math:`A(\kappa) = E[(\mu^T x)^2] = \frac{d}{d\kappa}\log M(\tfrac12,\tfrac32,\kappa)`.
 
     For :math:`\kappa > 0`, :math:`A = 1/(2 s D(s)) - 1/(2\kappa)`, :math:`s = \sqrt\kappa`; series
-    :math:`1/3 + 4\kappa/45` for small :math:`|\kappa|`. Increases from 0
-    (:math:`\kappa\to-\infty`) through
-    1/3 (uniform) to 1.
+    :math:`1/3 + 4\kappa/45` for small :math:`|\kappa|`. Increases from 0 (:math:`\kappa\to-\infty`)
+    through 1/3 (uniform) to 1.
     """
     k = np.asarray(kappa, dtype=float)
     s = np.sqrt(np.abs(k))
@@ -158,11 +154,7 @@ def watson_mean_t2(kappa) -> np.ndarray:
 
 def _check_mu(mu) -> np.ndarray:
     m = np.asarray(mu, dtype=float)
-    if (
-        m.shape[-1:] != (3,)
-        or not np.all(np.isfinite(m))
-        or np.any(np.linalg.norm(m, axis=-1) == 0)
-    ):
+    if m.shape[-1:] != (3,) or not np.all(np.isfinite(m)) or np.any(np.linalg.norm(m, axis=-1) == 0):
         raise ValidationError("mu", np.asarray(mu).tolist(), "a non-zero finite 3-vector")
     return m / np.linalg.norm(m, axis=-1, keepdims=True)
 
@@ -184,9 +176,8 @@ def watson_pdf(x, mu, kappa) -> np.ndarray:
 def _sample_t(n: int, kappa: float, rng) -> np.ndarray:
     """|cos| of the angle to the axis, density prop. to exp(kappa t^2) on [0, 1] (kappa >= 0).
 
-    Rejection from the truncated exponential envelope exp(kappa (t - 1)) >= exp(kappa (t^2 - 1))
-    (as in Best &
-    Fisher 1986); acceptance exp(kappa t (t - 1)) is at least about 0.45 for every kappa.
+    Rejection from the truncated exponential envelope exp(kappa (t - 1)) >= exp(kappa (t^2 - 1)) (as
+    in Best & Fisher 1986); acceptance exp(kappa t (t - 1)) is at least about 0.45 for every kappa.
     """
     out = np.empty(0)
     while out.size < n:
@@ -332,13 +323,11 @@ def fit_watson_mixture(
 ) -> WatsonMixture:
     r"""Fit a mixture of bipolar Watson distributions by EM (Sra & Karp 2013), with length weights.
 
-    E-step: responsibilities :math:`r_{ij} \propto \pi_j f(x_i; \mu_j, \kappa_j)`. M-step, with
-    line weights
-    :math:`l_i`: :math:`\pi_j = \sum_i l_i r_{ij} / \sum_i l_i`, :math:`S_j = \sum_i l_i r_{ij} x_i
-    x_i^T /
-    \sum_i l_i r_{ij}`, :math:`\mu_j` the top eigenvector of :math:`S_j` and :math:`\kappa_j` the
-    root of
-    :math:`A(\kappa) = \lambda_{max}(S_j)` (bipolar components, :math:`\kappa \ge 0`).
+    E-step: responsibilities :math:`r_{ij} \propto \pi_j f(x_i; \mu_j, \kappa_j)`. M-step, with line
+    weights :math:`l_i`: :math:`\pi_j = \sum_i l_i r_{ij} / \sum_i l_i`, :math:`S_j = \sum_i l_i
+    r_{ij} x_i x_i^T / \sum_i l_i r_{ij}`, :math:`\mu_j` the top eigenvector of :math:`S_j` and
+    :math:`\kappa_j` the root of :math:`A(\kappa) = \lambda_{max}(S_j)` (bipolar components,
+    :math:`\kappa \ge 0`).
 
     Parameters
     ----------
@@ -370,9 +359,7 @@ def fit_watson_mixture(
         raise ValidationError("n_init", n_init, "an integer >= 1 when no init_axes are given")
     for _ in range(int(n_init)):
         idx = [rng.choice(len(x), p=w / w.sum())]
-        for _ in range(
-            k - 1
-        ):  # farthest-point (k-means++ style) seeding on the axial distance 1 - t^2
+        for _ in range(k - 1):  # farthest-point (k-means++ style) seeding on the axial distance 1 - t^2
             dist = np.clip(np.min(1 - (x @ x[idx].T) ** 2, axis=1), 0.0, None) * w
             p = dist / dist.sum() if dist.sum() > 0 else w / w.sum()
             idx.append(rng.choice(len(x), p=p))

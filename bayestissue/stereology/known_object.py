@@ -2,25 +2,18 @@ r"""A known object for checking CE predictors: two balls, sectioned systematical
 counted.
 
 The reference space is a ball of radius :math:`R`; the phase is a ball of radius :math:`r` whose
-centre lies
-on the sectioning axis at height :math:`c` (:math:`|c| + r \le R`), so its true volume fraction is
-:math:`V_V = r^3 / R^3`. Sections perpendicular to :math:`z` at :math:`z_j = -R + u + jT`,
-:math:`u \sim U[0, T)`, cut discs of radii :math:`\sqrt{R^2 - z^2}` and :math:`\sqrt{r^2 - (z -
-c)^2}`,
-concentric in the section plane. Each section gets an independent, uniformly placed square point
-grid of
-spacing :math:`d`; the counts are exact lattice-point counts, so the point-counting noise (the
-"nugget") is
-real and not modelled.
+centre lies on the sectioning axis at height :math:`c` (:math:`|c| + r \le R`), so its true volume
+fraction is :math:`V_V = r^3 / R^3`. Sections perpendicular to :math:`z` at :math:`z_j = -R + u +
+jT`, :math:`u \sim U[0, T)`, cut discs of radii :math:`\sqrt{R^2 - z^2}` and :math:`\sqrt{r^2 - (z -
+c)^2}`, concentric in the section plane. Each section gets an independent, uniformly placed square
+point grid of spacing :math:`d`; the counts are exact lattice-point counts, so the point-counting
+noise (the "nugget") is real and not modelled.
 
-Repeating the sampling over many random starts gives the true spread of :math:`\widehat V_V`
-against which
-the predictors of :mod:`bayestissue.stereology.sections` and the bootstraps of
-:mod:`bayestissue.stereology.uncertainty` are judged (:func:`ce_check`), as recommended by
-Gundersen et al.
-(1999) and Cruz-Orive (1999). The area functions of balls are smooth with bounded jumps of the
-derivative at
-the poles, the class for which :math:`m = 1` is designed.
+Repeating the sampling over many random starts gives the true spread of :math:`\widehat V_V` against
+which the predictors of :mod:`bayestissue.stereology.sections` and the bootstraps of
+:mod:`bayestissue.stereology.uncertainty` are judged (:func:`ce_check`), as recommended by Gundersen
+et al. (1999) and Cruz-Orive (1999). The area functions of balls are smooth with bounded jumps of
+the derivative at the poles, the class for which :math:`m = 1` is designed.
 """
 
 from __future__ import annotations
@@ -69,9 +62,7 @@ class TwoBallPhantom:
         return rr, rp
 
 
-def _lattice_count(
-    rho: np.ndarray, ox: np.ndarray, oy: np.ndarray, d: float, rmax: float
-) -> np.ndarray:
+def _lattice_count(rho: np.ndarray, ox: np.ndarray, oy: np.ndarray, d: float, rmax: float) -> np.ndarray:
     """Points of the grid {(ox + i d, oy + j d)} inside discs of radii ``rho`` centred at 0
     (vectorised)."""
     m = int(np.ceil(rmax / d)) + 1
@@ -106,9 +97,8 @@ def simulate_surs_counts(
     Returns
     -------
     dict with ``counts`` (n_starts, n_max, 2) points on (phase, rest of reference) zero-padded
-    beyond each
-    sample's last section, ``n_sections`` (n_starts,), ``starts`` (n_starts,) and ``z`` (n_starts,
-    n_max).
+    beyond each sample's last section, ``n_sections`` (n_starts,), ``starts`` (n_starts,) and ``z``
+    (n_starts, n_max).
     """
     T = check_positive("spacing", spacing)
     jit = check_positive("size_jitter", size_jitter, allow_zero=True)
@@ -156,17 +146,13 @@ def ce_check(
     Returns
     -------
     dict with ``true_ce`` (standard deviation over starts / true V_V), ``bias`` (relative),
-    ``n_sections``
-    (mean), the root-mean-square predicted CE of the ratio form with covariance and nugget for
-    ``m0``,
-    ``m1`` and ``q_hat``, ``classic`` (independent units, Cochran) and ``naive_bootstrap``
-    (resampling the
-    sections of each sample, averaged over ``n_naive`` samples). Options as :func:`simulate_surs_counts`.
+    ``n_sections`` (mean), the root-mean-square predicted CE of the ratio form with covariance and
+    nugget for ``m0``, ``m1`` and ``q_hat``, ``classic`` (independent units, Cochran) and
+    ``naive_bootstrap`` (resampling the sections of each sample, averaged over ``n_naive`` samples).
+    Options as :func:`simulate_surs_counts`.
     """
     rng = np.random.default_rng(rng)
-    sim = simulate_surs_counts(
-        phantom, spacing, n_starts, grid_spacing=grid_spacing, size_jitter=size_jitter, rng=rng
-    )
+    sim = simulate_surs_counts(phantom, spacing, n_starts, grid_spacing=grid_spacing, size_jitter=size_jitter, rng=rng)
     Q = sim["counts"][..., 0]
     P = sim["counts"].sum(axis=-1)
     vv = Q.sum(axis=1) / P.sum(axis=1)

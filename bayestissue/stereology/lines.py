@@ -1,23 +1,18 @@
 r"""Line systems approximating the axes of traced cells, their length density and directions.
 
 The paper (Section 2.5.2-2.5.3) traced the centres of gravity of the smooth muscle cells through a
-stack of ten
-registered micrographs and approximated them by lines; the length density is eq. (2),
+stack of ten registered micrographs and approximated them by lines; the length density is eq. (2),
 
 .. math:: L_V(\text{SMC}, \text{ref}) = L(\text{SMC}) / V(\text{ref}),
 
 3171.1 um / 184 774 um^3 = 0.0172 um^-2 in the paper.
 
 Frame and angles (the project's body frame, MODEL.md): x the loading direction (longitudinal), y
-top-down,
-z the remaining axis. Lines are axes, mapped to the upper hemisphere :math:`z \ge 0` with the pole
-on z;
-azimuth :math:`\varphi = \operatorname{atan2}(y, x) \in [0, 360)` degrees and elevation
-:math:`\epsilon = \arcsin z \in [0, 90]` degrees (the angle above the x-y plane). The paper's three
-fibre
-directions all have z = 0, i.e. elevation 0 ("elevations near zero"). On the equator (z = 0
-exactly) the
-representative is the one with y > 0, or x > 0 when y = 0 too.
+top-down, z the remaining axis. Lines are axes, mapped to the upper hemisphere :math:`z \ge 0` with
+the pole on z; azimuth :math:`\varphi = \operatorname{atan2}(y, x) \in [0, 360)` degrees and
+elevation :math:`\epsilon = \arcsin z \in [0, 90]` degrees (the angle above the x-y plane). The
+paper's three fibre directions all have z = 0, i.e. elevation 0 ("elevations near zero"). On the
+equator (z = 0 exactly) the representative is the one with y > 0, or x > 0 when y = 0 too.
 """
 
 from __future__ import annotations
@@ -44,9 +39,7 @@ def to_upper_hemisphere(d) -> np.ndarray:
     d = np.asarray(d, dtype=float)
     n = np.linalg.norm(d, axis=-1, keepdims=True)
     if np.any(n == 0) or not np.all(np.isfinite(d)):
-        raise ValidationError(
-            "directions", "a zero or non-finite vector", "non-zero finite directions"
-        )
+        raise ValidationError("directions", "a zero or non-finite vector", "non-zero finite directions")
     d = d / n
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     flip = (z < 0) | ((z == 0) & ((y < 0) | ((y == 0) & (x < 0))))
@@ -76,9 +69,7 @@ def length_density(total_length_um: float, volume_um3: float) -> float:
     return L / V
 
 
-def stack_volume(
-    extent_x_um: float, extent_y_um: float, n_sections: int, thickness_um: float
-) -> float:
+def stack_volume(extent_x_um: float, extent_y_um: float, n_sections: int, thickness_um: float) -> float:
     """Probed volume of a stack of ``n_sections`` sections of ``thickness_um`` over an image of the
     given extent."""
     if isinstance(n_sections, bool) or not float(n_sections).is_integer() or int(n_sections) < 1:
@@ -102,9 +93,7 @@ def segments_from_polylines(polylines, cell_ids) -> tuple[np.ndarray, np.ndarray
     for pts, cid in zip(polylines, cell_ids, strict=True):
         p = np.asarray(pts, dtype=float)
         if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 2:
-            raise ValidationError(
-                f"polyline of cell {cid}", f"shape {p.shape}", "(k >= 2, 3) vertices"
-            )
+            raise ValidationError(f"polyline of cell {cid}", f"shape {p.shape}", "(k >= 2, 3) vertices")
         s.append(p[:-1])
         e.append(p[1:])
         c.extend([cid] * (len(p) - 1))
@@ -132,9 +121,7 @@ class LineSystem:
         e = np.asarray(self.end, dtype=float)
         c = np.asarray(self.cell)
         if s.ndim != 2 or s.shape[1] != 3 or s.shape != e.shape or s.shape[0] == 0:
-            raise ValidationError(
-                "start/end", f"shapes {s.shape}, {e.shape}", "equal (n >= 1, 3) arrays"
-            )
+            raise ValidationError("start/end", f"shapes {s.shape}, {e.shape}", "equal (n >= 1, 3) arrays")
         if c.shape != (s.shape[0],):
             raise ValidationError("cell", f"shape {c.shape}", f"({s.shape[0]},) one id per segment")
         if not (np.all(np.isfinite(s)) and np.all(np.isfinite(e))):

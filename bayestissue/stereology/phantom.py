@@ -72,6 +72,8 @@ class PhantomOptions:
         cells they cross; cells mostly inside a sinus are not placed).
     gap_um : collagen sheath kept around earlier cells when testing overlap (0 allows touching
         cells).
+    seams : free a one-voxel collagen seam (endomysium) wherever two cells touch, so that touching
+        cells stay distinguishable; cells are added until the SMC fraction after the seams is met.
     cavity_scale_um : correlation length (Gaussian filter sigma) of the random field the cavities
         are cut from.
     """
@@ -88,20 +90,17 @@ class PhantomOptions:
     max_overlap: float = 0.25
     max_in_cavity: float = 0.5
     gap_um: float = 0.0
+    seams: bool = True
     cavity_scale_um: tuple[float, float, float] = (24.0, 8.0, 8.0)
     max_attempts: int = field(default=200_000)
 
     def __post_init__(self):
         ext = np.asarray(self.extent_um, dtype=float)
         if ext.shape != (3,) or not np.all(np.isfinite(ext)) or np.any(ext <= 0):
-            raise ValidationError(
-                "extent_um", self.extent_um, "three positive lengths (z, y, x) in um"
-            )
+            raise ValidationError("extent_um", self.extent_um, "three positive lengths (z, y, x) in um")
         check_positive("voxel_um", self.voxel_um)
         if np.any(ext / self.voxel_um < 4):
-            raise ValidationError(
-                "extent_um", self.extent_um, "at least 4 voxels along each axis", "reduce voxel_um"
-            )
+            raise ValidationError("extent_um", self.extent_um, "at least 4 voxels along each axis", "reduce voxel_um")
         check_interval("smc_fraction", self.smc_fraction, 0.0, 1.0, closed=(False, False))
         check_interval("cavity_fraction", self.cavity_fraction, 0.0, 1.0, closed=(True, False))
         check_positive("cell_length_um", self.cell_length_um)
@@ -113,9 +112,7 @@ class PhantomOptions:
                 f"<= cell_length_um / 2 = {self.cell_length_um / 2}",
             )
         if len(self.axes) != len(self.weights) or len(self.axes) == 0:
-            raise ValidationError(
-                "axes", self.axes, f"{len(self.weights)} unit vectors, one per weight"
-            )
+            raise ValidationError("axes", self.axes, f"{len(self.weights)} unit vectors, one per weight")
         for k, a in enumerate(self.axes):
             check_unit_vector(f"axes[{k}]", a)
         w = np.asarray(self.weights, dtype=float)
@@ -127,9 +124,7 @@ class PhantomOptions:
         check_positive("gap_um", self.gap_um, allow_zero=True)
         sc = np.asarray(self.cavity_scale_um, dtype=float)
         if sc.shape != (3,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
-            raise ValidationError(
-                "cavity_scale_um", self.cavity_scale_um, "three positive lengths (z, y, x) in um"
-            )
+            raise ValidationError("cavity_scale_um", self.cavity_scale_um, "three positive lengths (z, y, x) in um")
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -339,6 +334,22 @@ def _ellipsoid_voxels(centre, axis, a, b, shape, voxel):
     return iz + lo[2], iy + lo[1], ix + lo[0]
 
 
+def _carve_seams(cell_ids: np.ndarray) -> int:
+    """Free the later cell's voxel wherever two different cells touch (6-neighbours); count."""
+    seam = np.zeros(cell_ids.shape, dtype=bool)
+    for ax in range(3):
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[ax], hi[ax] = slice(None, -1), slice(1, None)
+        lo, hi = tuple(lo), tuple(hi)
+        a, b = cell_ids[lo], cell_ids[hi]
+        touch = (a > 0) & (b > 0) & (a != b)
+        seam[lo] |= touch & (a > b)
+        seam[hi] |= touch & (b > a)
+    cell_ids[seam] = 0
+    return int(seam.sum())
+
+
 def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePhantom:
     r"""Generate a tissue block with known volume fractions and cell axes.
 
@@ -395,54 +406,62 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
     n_smc = 0
     batch = 256
     attempts = 0
-    while n_smc < n_target:
-        if attempts >= o.max_attempts:
-            raise ValidationError(
-                "smc_fraction",
-                o.smc_fraction,
-                f"a density reachable with max_overlap={o.max_overlap}, gap_um={o.gap_um}",
-                f"reached {n_smc / (np.prod(shape) - n_cav):.3f} of the tissue after "
-                f"{attempts} candidates; raise max_overlap or lower gap_um",
-            )
-        comp = rng.choice(len(weights), size=batch, p=weights)
-        dirs = np.empty((batch, 3))
-        for k in range(len(weights)):
-            sel = comp == k
-            if sel.any():
-                dirs[sel] = sample_watson_axes(axes[k], o.kappa, int(sel.sum()), rng=rng)
-        centres = rng.uniform(size=(batch, 3)) * (upper + 2 * a) - a
-        for j in range(batch):
-            attempts += 1
-            d = dirs[j] * (-1.0 if dirs[j][2] < 0 else 1.0)
-            seg = clip_segment_to_box(centres[j] - a * d, centres[j] + a * d, upper)
-            if seg is None:
-                continue
-            vox = _ellipsoid_voxels(centres[j], d, a, b, shape, v)
-            if vox is None or vox[0].size == 0:
-                continue
-            in_tissue = ~cavity[vox]
-            if in_tissue.mean() < 1 - o.max_in_cavity:
-                continue
-            if (blocked[vox] & in_tissue).mean() > o.max_overlap:
-                continue
-            free = (cell_ids[vox] == 0) & in_tissue
-            idx = tuple(x[free] for x in vox)
-            cell_ids[idx] = len(segments) + 1
-            n_smc += int(free.sum())
-            if gap_vox > 0:
-                lo = [max(0, int(x.min()) - gap_vox) for x in vox]
-                hi = [min(s, int(x.max()) + gap_vox + 1) for x, s in zip(vox, shape, strict=True)]
-                box = tuple(slice(l_, h_) for l_, h_ in zip(lo, hi, strict=True))
-                sub = np.zeros([h_ - l_ for l_, h_ in zip(lo, hi, strict=True)], dtype=bool)
-                sub[tuple(x - l_ for x, l_ in zip(vox, lo, strict=True))] = True
-                blocked[box] |= ndimage.binary_dilation(sub, ball, iterations=gap_vox)
-            else:
-                blocked[vox] = True
-            segments.append(seg)
-            directions.append(d)
-            comps.append(int(comp[j]))
-            if n_smc >= n_target:
-                break
+    goal = n_target
+    while True:
+        while n_smc < goal:
+            if attempts >= o.max_attempts:
+                raise ValidationError(
+                    "smc_fraction",
+                    o.smc_fraction,
+                    f"a density reachable with max_overlap={o.max_overlap}, gap_um={o.gap_um}",
+                    f"reached {n_smc / (np.prod(shape) - n_cav):.3f} of the tissue after "
+                    f"{attempts} candidates; raise max_overlap or lower gap_um",
+                )
+            comp = rng.choice(len(weights), size=batch, p=weights)
+            dirs = np.empty((batch, 3))
+            for k in range(len(weights)):
+                sel = comp == k
+                if sel.any():
+                    dirs[sel] = sample_watson_axes(axes[k], o.kappa, int(sel.sum()), rng=rng)
+            centres = rng.uniform(size=(batch, 3)) * (upper + 2 * a) - a
+            for j in range(batch):
+                attempts += 1
+                d = dirs[j] * (-1.0 if dirs[j][2] < 0 else 1.0)
+                seg = clip_segment_to_box(centres[j] - a * d, centres[j] + a * d, upper)
+                if seg is None:
+                    continue
+                vox = _ellipsoid_voxels(centres[j], d, a, b, shape, v)
+                if vox is None or vox[0].size == 0:
+                    continue
+                in_tissue = ~cavity[vox]
+                if in_tissue.mean() < 1 - o.max_in_cavity:
+                    continue
+                if (blocked[vox] & in_tissue).mean() > o.max_overlap:
+                    continue
+                free = (cell_ids[vox] == 0) & in_tissue
+                idx = tuple(x[free] for x in vox)
+                cell_ids[idx] = len(segments) + 1
+                n_smc += int(free.sum())
+                if gap_vox > 0:
+                    lo = [max(0, int(x.min()) - gap_vox) for x in vox]
+                    hi = [min(s, int(x.max()) + gap_vox + 1) for x, s in zip(vox, shape, strict=True)]
+                    box = tuple(slice(l_, h_) for l_, h_ in zip(lo, hi, strict=True))
+                    sub = np.zeros([h_ - l_ for l_, h_ in zip(lo, hi, strict=True)], dtype=bool)
+                    sub[tuple(x - l_ for x, l_ in zip(vox, lo, strict=True))] = True
+                    blocked[box] |= ndimage.binary_dilation(sub, ball, iterations=gap_vox)
+                else:
+                    blocked[vox] = True
+                segments.append(seg)
+                directions.append(d)
+                comps.append(int(comp[j]))
+                if n_smc >= goal:
+                    break
+        if not o.seams:
+            break
+        n_smc -= _carve_seams(cell_ids)
+        if n_smc >= n_target:
+            break
+        goal = n_smc + 1.25 * (n_target - n_smc)
 
     components = np.full(shape, ECM, dtype=np.uint8)
     components[cell_ids > 0] = SMC

@@ -38,6 +38,7 @@ __all__ = [
     "section_phantom",
     "render_sections",
     "rigid_matrix",
+    "stack_frame",
 ]
 
 _AXES = {"z": 0, "y": 1, "x": 2}
@@ -148,6 +149,15 @@ def rigid_matrix(angle_deg: float, tx: float, ty: float, centre) -> np.ndarray:
     M[:2, :2] = R
     M[:2, 2] = cx - R @ cx + np.array([tx, ty])
     return M
+
+
+def stack_frame(axis: str = "z") -> np.ndarray:
+    """Rows: the phantom (x, y, z) unit vectors of the stack's x (columns), y (rows) and z
+    (section index) axes, so that ``v_stack = stack_frame(axis) @ v_phantom``."""
+    if axis not in _AXES:
+        raise ValidationError("section_axis", axis, "one of 'z', 'y', 'x'")
+    e = np.eye(3)
+    return {"z": e, "y": e[[0, 2, 1]], "x": e[[1, 2, 0]]}[axis]
 
 
 def section_phantom(

@@ -6,21 +6,18 @@ Pipeline (:func:`stereology_replicates`):
 1. volume fractions of SMC and ECM from the point counts (paper eq. 1), replicated by the
 design-aware
    parametric bootstrap (:func:`~bayestissue.stereology.uncertainty.parametric_fraction_bootstrap`)
-   or, with
-   several independent blocks, the cluster bootstrap;
+   or, with several independent blocks, the cluster bootstrap;
 2. three fibre directions from the line system (:func:`fit_fibre_directions`: Watson mixture by
 default, or the
    rose's top cells for a given n), replicated by resampling whole traced cells and aligned to the
-   point
-   estimate (:func:`direction_bootstrap`);
+   point estimate (:func:`direction_bootstrap`);
 3. the SMC fraction split between the three families (:func:`fibre_fraction_split`) and the table
 assembled
    with family k matched to the paper's v_k (:func:`replicate_table`, columns
    :data:`bayestissue.io.stereology_files.REPLICATE_COLUMNS`).
 
 Fractions and directions come from different measurements (point grid vs traced stack) and are
-paired row by
-row as independent draws.
+paired row by row as independent draws.
 """
 
 from __future__ import annotations
@@ -61,10 +58,8 @@ def fibre_fraction_split(phi_smc, *, method: str = "paper", shares=None) -> np.n
 
     ``"paper"``: equal thirds, :math:`\phi_k = \phi_{SMC}/3` (the paper, Section 3.2.1, rounded
     0.589 / 3 = 0.196 to 0.2 and :math:`\phi_m` = 0.411 to 0.4). ``"length"``: :math:`\phi_k =
-    \phi_{SMC}\,s_k`
-    with :math:`s_k` the families' length shares (Watson mixture weights or the rose's top-cell
-    lengths,
-    normalised to sum 1).
+    \phi_{SMC}\,s_k` with :math:`s_k` the families' length shares (Watson mixture weights or the
+    rose's top-cell lengths, normalised to sum 1).
 
     Returns (n, 3).
     """
@@ -94,8 +89,7 @@ def fit_fibre_directions(
 
     ``method="watson"``: three-component Watson mixture with length weights (axes, weights);
     ``method="rose"``: the top three directions of the n x n equal-area rose (principal axes of the
-    merged top
-    cells, shares = their lengths normalised over the three).
+    merged top cells, shares = their lengths normalised over the three).
 
     Returns axes (3, 3) and shares (3,).
     """
@@ -111,40 +105,42 @@ def fit_fibre_directions(
         return mix.axes, mix.weights
     top = preferential_directions(rose_of_directions(d, w, n=n), k=3)
     if len(top) < 3:
-        raise ValidationError(
-            "line system", f"{len(top)} occupied directions", ">= 3 distinct directions"
-        )
+        raise ValidationError("line system", f"{len(top)} occupied directions", ">= 3 distinct directions")
     L = np.array([c["length_um"] for c in top])
     return np.array([c["vector"] for c in top]), L / L.sum()
 
 
-def direction_bootstrap(
-    lines: LineSystem, *, method: str = "watson", n: int = 15, n_boot: int = 300, rng=None
-) -> dict:
+def direction_bootstrap(lines: LineSystem, *, method: str = "watson", n: int = 15, n_boot: int = 300, rng=None) -> dict:
     """Point estimate of the three fibre axes and their cell-bootstrap replicates.
 
     Returns
     -------
     dict with ``axes`` (3, 3) and ``shares`` (3,) of the full data (ordered as the paper's v1, v2,
-    v3 by
-    optimal axial assignment), ``replicate_axes`` (n_boot, 3, 3) aligned to ``axes`` (no label
-    switching,
-    signs a . axes_k >= 0), ``replicate_shares`` (n_boot, 3) permuted alike, ``cone_deg`` (3,) 95 %
-    cone
-    half-angles and ``angle_to_paper_deg`` (3,).
+    v3 by optimal axial assignment), ``replicate_axes`` (n_boot, 3, 3) aligned to ``axes`` (no label
+    switching, signs a . axes_k >= 0), ``replicate_shares`` (n_boot, 3) permuted alike, ``cone_deg``
+    (3,) 95 % cone half-angles and ``angle_to_paper_deg`` (3,); ``lengths_um`` (3,) the families'
+    line lengths (share x total), ``replicate_lengths_um`` (n_boot, 3) and their 95 % intervals
+    ``length_ci_um`` (2, 3).
     """
     rng = np.random.default_rng(rng)
     axes, shares = fit_fibre_directions(lines, method=method, n=n, rng=rng)
     axes, order = align_axes(axes, PAPER_DIRECTIONS)
     shares = shares[order]
 
+    totals = []
+
     def est(idx):
+        totals.append(lines.lengths[idx].sum())
         return fit_fibre_directions(lines, idx, method=method, n=n, init_axes=axes, rng=rng)
 
     rep_axes, rep_shares = bootstrap_cells(lines.cell, est, n_boot=n_boot, rng=rng)
     rep_axes, rep_order = align_axes(rep_axes, axes)
     rep_shares = np.take_along_axis(rep_shares, rep_order, axis=1)
+    rep_lengths = rep_shares * np.asarray(totals)[:, None]
     return {
+        "lengths_um": shares * lines.total_length_um,
+        "replicate_lengths_um": rep_lengths,
+        "length_ci_um": np.quantile(rep_lengths, [0.025, 0.975], axis=0),
         "axes": axes,
         "shares": shares,
         "replicate_axes": rep_axes,
@@ -171,9 +167,7 @@ def fraction_replicates(
         if counts.block is None:
             raise ValidationError("block", None, "a 'block' column for the cluster bootstrap")
         order = np.argsort(counts.section, kind="stable")
-        draws = cluster_fraction_bootstrap(
-            Q, np.asarray(counts.block)[order], n_boot=n_boot, rng=rng
-        )
+        draws = cluster_fraction_bootstrap(Q, np.asarray(counts.block)[order], n_boot=n_boot, rng=rng)
     elif kind == "naive":
         draws = naive_section_bootstrap(Q, n_boot=n_boot, rng=rng)
     else:
@@ -196,11 +190,9 @@ def replicate_table(
     fractions : {"smc": (B,), "ecm": (B,)} volume-fraction replicates (reference space without
         cavities).
     directions : (B, 3, 3) fibre-axis replicates; aligned here to ``reference`` (the paper's v1,
-        v2, v3), so
-        family k matches paper v_k and v_k . paper_v_k >= 0.
+        v2, v3), so family k matches paper v_k and v_k . paper_v_k >= 0.
     split : ``"paper"`` or ``"length"`` (then ``shares`` (B, 3) in the order of ``directions``,
-        permuted with
-        the axes), see :func:`fibre_fraction_split`.
+        permuted with the axes), see :func:`fibre_fraction_split`.
 
     Returns
     -------
@@ -214,9 +206,7 @@ def replicate_table(
     D = np.asarray(directions, dtype=float)
     B = phi_smc.size
     if D.shape != (B, 3, 3):
-        raise ValidationError(
-            "directions", f"shape {D.shape}", f"({B}, 3, 3) matching the fractions"
-        )
+        raise ValidationError("directions", f"shape {D.shape}", f"({B}, 3, 3) matching the fractions")
     if split not in ("paper", "length"):
         raise ValidationError("split", split, "'paper' or 'length'")
     aligned, order = align_axes(D, reference)
@@ -259,8 +249,7 @@ def stereology_replicates(
     -------
     columns : the replicate table (:func:`replicate_table`).
     info : the point estimates (``fractions``, ``axes``, ``shares``), ``cone_deg``,
-        ``angle_to_paper_deg``
-        and the options used (for the file's comment header).
+        ``angle_to_paper_deg`` and the options used (for the file's comment header).
     """
     rng = np.random.default_rng(rng)
     for name in ("smc", "ecm"):

@@ -1,29 +1,22 @@
 r"""Rose of directions on an equal-area partition of the upper hemisphere, and the Lambert
 projection.
 
-The paper (Section 2.5.3) split the upper hemisphere into ``n`` parallels x ``n`` meridians of
-equal area, summed
-the line length per cell and took the three cells with the largest length as the preferential
-directions,
-for n = 8 and 15 (Figs. 6-8). Here band ``b`` (counted from the equator, b = 0 ... n-1) holds
-:math:`b/n \le z < (b+1)/n`, i.e. :math:`\sin\epsilon \in [b/n, (b+1)/n)`; equivalently the
-colatitude
-boundaries are :math:`\cos\theta_k = 1 - k/n` counted from the pole. Meridian ``j`` holds azimuths
-:math:`[360 j/n, 360 (j+1)/n)`. All :math:`n^2` cells have area :math:`2\pi/n^2`.
+The paper (Section 2.5.3) split the upper hemisphere into ``n`` parallels x ``n`` meridians of equal
+area, summed the line length per cell and took the three cells with the largest length as the
+preferential directions, for n = 8 and 15 (Figs. 6-8). Here band ``b`` (counted from the equator, b
+= 0 ... n-1) holds :math:`b/n \le z < (b+1)/n`, i.e. :math:`\sin\epsilon \in [b/n, (b+1)/n)`;
+equivalently the colatitude boundaries are :math:`\cos\theta_k = 1 - k/n` counted from the pole.
+Meridian ``j`` holds azimuths :math:`[360 j/n, 360 (j+1)/n)`. All :math:`n^2` cells have area
+:math:`2\pi/n^2`.
 
 Lambert azimuthal equal-area projection about the pole z: :math:`r = 2\sin(\theta/2) = \sqrt{2(1 -
-z)}`,
-so the band circles :math:`\cos\theta_k = 1 - k/n` are at :math:`r_k = \sqrt{2k/n}` and the equator
-(elevation
-0) is the rim :math:`r = \sqrt 2`.
+z)}`, so the band circles :math:`\cos\theta_k = 1 - k/n` are at :math:`r_k = \sqrt{2k/n}` and the
+equator (elevation 0) is the rim :math:`r = \sqrt 2`.
 
 A mode on the equator is split between two antipodal cells (its lines with z slightly below 0 are
-flipped), and
-polar cells are thin slivers, so the top cells are refined by the length-weighted principal axis of
-their lines
-(not the cell centre), and cells whose axis lies within ``merge_deg`` of an already chosen
-direction are merged
-into it (see :func:`preferential_directions`).
+flipped), and polar cells are thin slivers, so the top cells are refined by the length-weighted
+principal axis of their lines (not the cell centre), and cells whose axis lies within ``merge_deg``
+of an already chosen direction are merged into it (see :func:`preferential_directions`).
 """
 
 from __future__ import annotations
@@ -63,10 +56,15 @@ def cell_index(directions, n: int) -> tuple[np.ndarray, np.ndarray]:
     return band, mer
 
 
-def lambert_project(directions) -> np.ndarray:
-    r"""Lambert azimuthal equal-area coordinates (X, Y) = r (cos az, sin az), :math:`r = \sqrt{2(1
-    - z)}`."""
-    u = to_upper_hemisphere(directions)
+def lambert_project(directions, *, upper: bool = True) -> np.ndarray:
+    r"""Lambert azimuthal equal-area coordinates (X, Y) = r (cos az, sin az), :math:`r = \sqrt{2(1 - z)}`.
+
+    ``upper=True`` maps axes to the upper hemisphere first (disc of radius sqrt 2); ``upper=False``
+    keeps the given signs, so vectors slightly below the equator land just outside the rim (the full
+    sphere fills r <= 2), which keeps an equatorial axis and its cone on one side of the plot.
+    """
+    u = to_upper_hemisphere(directions) if upper else np.asarray(directions, dtype=float)
+    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
     r = np.sqrt(np.clip(2.0 * (1.0 - u[..., 2]), 0.0, None))
     az = np.arctan2(u[..., 1], u[..., 0])
     return np.stack([r * np.cos(az), r * np.sin(az)], axis=-1)
@@ -127,32 +125,25 @@ def rose_of_directions(directions, weights=None, *, n: int) -> EqualAreaRose:
     return EqualAreaRose(n, L, band, mer, d, w)
 
 
-def preferential_directions(
-    rose: EqualAreaRose, *, k: int = 3, merge_deg: float = 20.0
-) -> list[dict]:
+def preferential_directions(rose: EqualAreaRose, *, k: int = 3, merge_deg: float = 20.0) -> list[dict]:
     """The top-``k`` cells of the rose as preferential directions, each refined by its lines'
     principal axis.
 
     Cells are visited by decreasing length; the direction of a cell is the principal axis of the
     length-weighted orientation tensor of its lines (bin-free within the cell). A cell whose axis
-    lies within
-    ``merge_deg`` (axial angle) of an already chosen direction is merged into it (lengths added,
-    axis refitted):
-    this joins the two antipodal halves of an equatorial mode and the within-mode neighbours of a
-    spread-out
-    family. The default 20 degrees is half the smallest angle between the paper's directions (v2
-    and v3 are 40
-    degrees apart), so distinct families are never merged. ``merge_deg = 0`` gives the paper's
-    literal top-k
-    cells, which for modes near the equator can repeat one family.
+    lies within ``merge_deg`` (axial angle) of an already chosen direction is merged into it
+    (lengths added, axis refitted): this joins the two antipodal halves of an equatorial mode and
+    the within-mode neighbours of a spread-out family. The default 20 degrees is half the smallest
+    angle between the paper's directions (v2 and v3 are 40 degrees apart), so distinct families are
+    never merged. ``merge_deg = 0`` gives the paper's literal top-k cells, which for modes near the
+    equator can repeat one family.
 
     Returns
     -------
-    list of k dicts, ranked by merged length: ``rank``, ``band``, ``meridian`` (of the first cell), ``n_cells`` merged,
-    ``length_um``,
-    ``share`` (of the total length), ``cell_azimuth`` / ``cell_elevation`` (centre of the first
-    cell, degrees),
-    ``azimuth`` / ``elevation`` (degrees) and ``vector`` (3,) of the principal axis.
+    list of k dicts, ranked by merged length: ``rank``, ``band``, ``meridian`` (of the first cell),
+    ``n_cells`` merged, ``length_um``, ``share`` (of the total length), ``cell_azimuth`` /
+    ``cell_elevation`` (centre of the first cell, degrees), ``azimuth`` / ``elevation`` (degrees)
+    and ``vector`` (3,) of the principal axis.
     """
     check_interval("merge_deg", merge_deg, 0.0, 90.0)
     k = _check_n(k)
@@ -167,11 +158,7 @@ def preferential_directions(
             break
         idx = np.flatnonzero((rose.band == b) & (rose.meridian == m))
         axis = principal_axes(orientation_tensor(rose.directions[idx], rose.weights[idx]))[1][:, 0]
-        hit = (
-            [c for c in chosen if axial_angle(axis, c["vector"]) < merge_deg]
-            if merge_deg > 0
-            else []
-        )
+        hit = [c for c in chosen if axial_angle(axis, c["vector"]) < merge_deg] if merge_deg > 0 else []
         if hit:
             c = hit[0]
             c["_idx"] = np.concatenate([c["_idx"], idx])
@@ -183,9 +170,7 @@ def preferential_directions(
         else:
             continue
         i = c["_idx"]
-        c["vector"] = principal_axes(orientation_tensor(rose.directions[i], rose.weights[i]))[1][
-            :, 0
-        ]
+        c["vector"] = principal_axes(orientation_tensor(rose.directions[i], rose.weights[i]))[1][:, 0]
         c["length_um"] = float(rose.weights[i].sum())
     chosen.sort(key=lambda c: -c["length_um"])  # rank by the (merged) length
     for r, c in enumerate(chosen, start=1):
@@ -198,17 +183,13 @@ def preferential_directions(
     return chosen
 
 
-def directions_vs_n(
-    directions, weights=None, *, ns=range(6, 21), k: int = 3, merge_deg: float = 20.0
-):
+def directions_vs_n(directions, weights=None, *, ns=range(6, 21), k: int = 3, merge_deg: float = 20.0):
     """Top-``k`` directions for each number of parallels/meridians in ``ns`` (how much the answer
     depends on n).
 
     Returns dict n -> list of dicts as :func:`preferential_directions`.
     """
     return {
-        int(n): preferential_directions(
-            rose_of_directions(directions, weights, n=n), k=k, merge_deg=merge_deg
-        )
+        int(n): preferential_directions(rose_of_directions(directions, weights, n=n), k=k, merge_deg=merge_deg)
         for n in ns
     }

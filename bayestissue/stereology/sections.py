@@ -2,20 +2,16 @@ r"""Systematic uniform random sections (SURS), point counts, volume fractions an
 of error.
 
 The paper (Kochova et al., Section 2.5.1) estimated the volume fractions of smooth muscle cells
-(SMC) and
-extracellular matrix (ECM) by point counting on ``m = 12`` of 72 serial sections taken
-systematically (every
-sixth, random start), eq. (1):
+(SMC) and extracellular matrix (ECM) by point counting on ``m = 12`` of 72 serial sections taken
+systematically (every sixth, random start), eq. (1):
 
 .. math:: \widehat{V}_V(\text{component}) = \frac{\sum_i Q_i}{\sum_i P_i} = P_P(\text{component}),
 
 with :math:`Q_i` the points hitting the component and :math:`P_i` the points hitting the reference
-space
-(tissue without haemocoelic cavities) on section :math:`i`.
+space (tissue without haemocoelic cavities) on section :math:`i`.
 
 The coefficient of error (CE) of a sum over a systematic sample follows Gundersen & Jensen (1987)
-and
-Gundersen et al. (1999), with :math:`C_k = \sum_i P_i P_{i+k}` (counts zero-padded beyond the
+and Gundersen et al. (1999), with :math:`C_k = \sum_i P_i P_{i+k}` (counts zero-padded beyond the
 series):
 
 .. math::
@@ -23,15 +19,12 @@ series):
     \operatorname{Var}\Big(\sum P\Big) = \operatorname{Var}_{SURS} + \nu,
 
 :math:`\alpha(0) = 1/12` (functions with jumps), :math:`\alpha(1) = 1/240` (smooth functions), and
-the
-point-counting "nugget" :math:`\nu = 0.0724\,(b/\sqrt a)\sqrt{n \sum P}`. The fractional smoothness
-variant
-(Garcia-Finana & Cruz-Orive 2000) uses :math:`\alpha(q)` with :math:`q` estimated from the data, see
-:func:`alpha_q` and :func:`smoothness_q_hat`.
+the point-counting "nugget" :math:`\nu = 0.0724\,(b/\sqrt a)\sqrt{n \sum P}`. The fractional
+smoothness variant (Garcia-Finana & Cruz-Orive 2000) uses :math:`\alpha(q)` with :math:`q` estimated
+from the data, see :func:`alpha_q` and :func:`smoothness_q_hat`.
 
 All array functions work along the last axis, so a batch of systematic samples (e.g. many random
-starts through a
-known object, zero-padded to a common length) is handled in one call.
+starts through a known object, zero-padded to a common length) is handled in one call.
 
 References
 ----------
@@ -85,8 +78,7 @@ def surs_indices(n_sections: int, period: int, *, rng=None) -> np.ndarray:
     ``period``-th.
 
     The paper (Section 2.5.1) took every sixth of 72 serial sections from a random start ``72 u /
-    m`` with
-    ``u ~ U[0, 1)`` and ``m = 12``; this is ``start = floor(period * u)``.
+    m`` with ``u ~ U[0, 1)`` and ``m = 12``; this is ``start = floor(period * u)``.
 
     Parameters
     ----------
@@ -120,20 +112,16 @@ def alpha_q(q) -> np.ndarray:
         \alpha(q) = \frac{\Gamma(2q+2)\,\zeta(2q+2)\,\cos(\pi q)}{(2\pi)^{2q+2}\,(1 - 2^{2q-1})}
 
     (Garcia-Finana & Cruz-Orive 2000). :math:`\alpha(0) = 1/12`, :math:`\alpha(1) = 1/240`; the
-    singularity
-    at :math:`q = 1/2` is removable: with :math:`e = q - 1/2`,
-    :math:`\cos(\pi q)/(1 - 2^{2q-1}) = \sin(\pi e)/\operatorname{expm1}(2 e \ln 2) \to \pi / (2
-    \ln 2)`,
-    giving :math:`\alpha(1/2) = 0.0219639`.
+    singularity at :math:`q = 1/2` is removable: with :math:`e = q - 1/2`, :math:`\cos(\pi q)/(1 -
+    2^{2q-1}) = \sin(\pi e)/\operatorname{expm1}(2 e \ln 2) \to \pi / (2 \ln 2)`, giving
+    :math:`\alpha(1/2) = 0.0219639`.
     """
     q = np.asarray(q, dtype=float)
     if np.any(~np.isfinite(q)) or np.any((q < 0) | (q > 1)):
         raise ValidationError("q", q.tolist(), "smoothness values in [0, 1]")
     e = q - 0.5
     with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.where(
-            e == 0, np.pi / (2 * np.log(2.0)), np.sin(np.pi * e) / np.expm1(2 * e * np.log(2))
-        )
+        ratio = np.where(e == 0, np.pi / (2 * np.log(2.0)), np.sin(np.pi * e) / np.expm1(2 * e * np.log(2)))
     s = 2 * q + 2
     return _gamma(s) * _zeta(s) * ratio / (2 * np.pi) ** s
 
@@ -158,8 +146,7 @@ def cross_covariogram(Q, P, max_lag: int = 4) -> np.ndarray:
     \dots` ``max_lag``.
 
     For :math:`k = 0` this is :math:`A_{QP} = \sum Q_i P_i`, for 1 and 2 the :math:`B_{QP}, C_{QP}`
-    of the ratio
-    CE (Gundersen et al. 1999); with ``Q = P`` it is :math:`C_k`.
+    of the ratio CE (Gundersen et al. 1999); with ``Q = P`` it is :math:`C_k`.
     """
     Q = np.asarray(Q, dtype=float)
     P = np.asarray(P, dtype=float)
@@ -195,11 +182,9 @@ def nugget_variance(P, *, shape_factor: float = DISC_SHAPE_FACTOR, n_profiles=No
     ----------
     P : (..., n) point counts per section.
     shape_factor : profile shape factor :math:`b/\sqrt a` (boundary length over root area); a disc
-        has
-        :math:`2\sqrt\pi = 3.545` (the default), elongated or irregular profiles more.
+        has :math:`2\sqrt\pi = 3.545` (the default), elongated or irregular profiles more.
     n_profiles : number of profiles :math:`n`; default the number of sections with a non-zero
-        count. For a
-        fragmented phase (many profiles per section) pass the profile count.
+        count. For a fragmented phase (many profiles per section) pass the profile count.
     """
     P = np.asarray(P, dtype=float)
     s = check_positive("shape_factor", shape_factor)
@@ -239,17 +224,15 @@ def surs_sum_variance(
     ----------
     P : (..., n) counts (or areas) on consecutive systematic sections, zero-padded if batched.
     smoothness : 0 (functions with jumps), 1 (smooth, the default, ellipsoid-like bodies), a value
-        in [0, 1],
-        or ``"q_hat"`` to estimate it (:func:`smoothness_q_hat`).
+        in [0, 1], or ``"q_hat"`` to estimate it (:func:`smoothness_q_hat`).
     nugget : point-counting variance :math:`\nu`; default :func:`nugget_variance` (pass 0 for exact
         areas).
     shape_factor, n_profiles : passed to :func:`nugget_variance`.
 
     Notes
     -----
-    The convention pinned here (Gundersen et al. 1999): :math:`\nu` is subtracted inside the
-    bracket and added
-    back outside. A negative systematic term (possible for very noisy counts) is set to 0.
+    The convention pinned here (Gundersen et al. 1999): :math:`\nu` is subtracted inside the bracket
+    and added back outside. A negative systematic term (possible for very noisy counts) is set to 0.
     """
     P = _check_counts("P", P)
     _check_n(P, 3, "the Gundersen-Jensen CE")
@@ -288,17 +271,15 @@ def fraction_covariance(
         inside and out}),
 
     with :math:`A, B, C` the symmetrised cross sums at lag 0, 1, 2 (:func:`cross_covariogram`), and
-    the ratio
-    covariance by the delta method:
+    the ratio covariance by the delta method:
 
     .. math:: \frac{\operatorname{Cov}(V_j, V_k)}{V_j V_k} = \frac{G_{jk}}{Q_j Q_k} -
         \frac{G_{jP}}{Q_j P}
         - \frac{G_{kP}}{Q_k P} + \frac{G_{PP}}{P^2}.
 
     The diagonal is the ratio CE of :func:`ratio_ce` squared times :math:`V_j^2`. The nugget of the
-    reference sum :math:`P` is that of the reference profiles, not the sum of the component
-    nuggets, so rows
-    need not sum to exactly zero; draw fractions on the simplex
+    reference sum :math:`P` is that of the reference profiles, not the sum of the component nuggets,
+    so rows need not sum to exactly zero; draw fractions on the simplex
     (:mod:`bayestissue.stereology.uncertainty`).
 
     Parameters
@@ -338,10 +319,7 @@ def fraction_covariance(
         sf = np.broadcast_to(np.asarray(shape_factors, dtype=float), (K + 1,))
         npf = [None] * (K + 1) if n_profiles is None else list(n_profiles)
         nu = np.stack(
-            [
-                nugget_variance(X[..., j, :], shape_factor=sf[j], n_profiles=npf[j])
-                for j in range(K + 1)
-            ],
+            [nugget_variance(X[..., j, :], shape_factor=sf[j], n_profiles=npf[j]) for j in range(K + 1)],
             axis=-1,
         )
         idx = np.arange(K + 1)
@@ -352,12 +330,7 @@ def fraction_covariance(
         G = a_mat * G
     inv = np.divide(1.0, sums, out=np.zeros_like(sums), where=sums > 0)  # absent component: 0
     R = G * inv[..., :, None] * inv[..., None, :]
-    rel = (
-        R[..., :K, :K]
-        - R[..., :K, K : K + 1]
-        - R[..., K : K + 1, :K]
-        + R[..., K : K + 1, K : K + 1]
-    )
+    rel = R[..., :K, :K] - R[..., :K, K : K + 1] - R[..., K : K + 1, :K] + R[..., K : K + 1, K : K + 1]
     V = sums[..., :K] * inv[..., K : K + 1]
     cov = rel * V[..., :, None] * V[..., None, :]
     return np.where(np.isfinite(cov), cov, 0.0)
@@ -387,9 +360,7 @@ def ratio_ce(Q, P, **kwargs) -> np.ndarray:
     bad = np.argwhere(Q > P)
     if bad.size:
         i = tuple(bad[0])
-        raise ValidationError(
-            "Q", f"{Q[i]:g} > P = {P[i]:g} at section {i[-1]}", "phase counts <= reference counts"
-        )
+        raise ValidationError("Q", f"{Q[i]:g} > P = {P[i]:g} at section {i[-1]}", "phase counts <= reference counts")
     sf = kwargs.pop("shape_factors", DISC_SHAPE_FACTOR)
     sf = np.broadcast_to(np.asarray(sf, dtype=float), (2,))
     npf = kwargs.pop("n_profiles", None)
@@ -408,8 +379,8 @@ def classic_ratio_ce(Q, P) -> np.ndarray:
 
     .. math:: CE^2 = \frac{n}{n-1} \sum_i \Big(\frac{Q_i}{\sum Q} - \frac{P_i}{\sum P}\Big)^2
 
-    It treats systematic sections as independent, which they are not, and overestimates the error
-    of SURS.
+    It treats systematic sections as independent, which they are not, and overestimates the error of
+    SURS.
     """
     Q = _check_counts("Q", Q)
     P = _check_counts("P", P)
@@ -434,9 +405,7 @@ def _check_counts(name: str, x) -> np.ndarray:
 def _check_n(P: np.ndarray, n_min: int, what: str) -> None:
     n = P.shape[-1]
     if n < n_min:
-        raise ValidationError(
-            "number of sections", n, f">= {n_min} sections for {what}", "sample more sections"
-        )
+        raise ValidationError("number of sections", n, f">= {n_min} sections for {what}", "sample more sections")
 
 
 @dataclass(frozen=True)
@@ -484,9 +453,7 @@ class PointCounts:
             if name not in self.components:
                 raise ValidationError("excluded", name, f"one of {list(self.components)}")
         if len(self.reference_components) == 0:
-            raise ValidationError(
-                "excluded", self.excluded, "at least one component left in the reference"
-            )
+            raise ValidationError("excluded", self.excluded, "at least one component left in the reference")
         if self.grid_spacing_um is not None:
             check_positive("grid_spacing_um", self.grid_spacing_um)
         check_positive("shape_factor", self.shape_factor)
@@ -549,17 +516,15 @@ class PointCounts:
         Q = self.reference_counts()
         tot = Q.sum()
         if tot <= 0:
-            raise ValidationError(
-                "counts", "no point in the reference space", "a positive reference count"
-            )
+            raise ValidationError("counts", "no point in the reference space", "a positive reference count")
         return {c: float(Q[:, j].sum() / tot) for j, c in enumerate(self.reference_components)}
 
     def summary(self) -> dict[str, dict[str, float]]:
         """V_V and every CE predictor per reference component (the table the CLI prints).
 
-        Keys per component: ``V_V``; ``CE_m0``, ``CE_m1``, ``CE_q_hat`` (ratio form with covariance and
-        nugget, :func:`fraction_covariance`); ``q_hat``; ``CE_classic`` (independent units, Cochran);
-        ``CE_sum_m0`` / ``CE_sum_m1`` (of the component's point sum alone).
+        Keys per component: ``V_V``; ``CE_m0``, ``CE_m1``, ``CE_q_hat`` (ratio form with covariance
+        and nugget, :func:`fraction_covariance`); ``q_hat``; ``CE_classic`` (independent units,
+        Cochran); ``CE_sum_m0`` / ``CE_sum_m1`` (of the component's point sum alone).
         """
         Q = self.reference_counts()
         P = Q.sum(axis=1)
@@ -578,12 +543,11 @@ class PointCounts:
             q = Q[:, j]
             r = {"V_V": float(V[j])}
             r.update({k: float(v[j]) for k, v in ce.items()})
-            r["q_hat"] = float(smoothness_q_hat(P)) if len(P) >= 5 else float("nan")
+            nuP = nugget_variance(P, shape_factor=self.shape_factor, n_profiles=None if nprof is None else nprof[-1])
+            r["q_hat"] = float(smoothness_q_hat(P, nugget=nuP)) if len(P) >= 5 else float("nan")
             r["CE_classic"] = float(classic_ratio_ce(q, P))
             npj = None if nprof is None else nprof[j]
             for m in (0, 1):
-                r[f"CE_sum_m{m}"] = float(
-                    ce_sum(q, smoothness=m, shape_factor=self.shape_factor, n_profiles=npj)
-                )
+                r[f"CE_sum_m{m}"] = float(ce_sum(q, smoothness=m, shape_factor=self.shape_factor, n_profiles=npj))
             out[c] = r
         return out

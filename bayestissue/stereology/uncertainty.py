@@ -2,26 +2,19 @@ r"""Uncertainty of stereological estimates, done right for systematic samples.
 
 Volume fractions
     Resampling the sections of ONE systematic sample as if they were independent
-    (:func:`naive_section_bootstrap`)
-    overestimates the sampling error several-fold; no unbiased variance estimator exists from one
-    systematic
-    sample (Cochran 1977, ch. 8). It is kept only as a labelled comparison. The defensible
-    alternatives here:
-    :func:`parametric_fraction_bootstrap`, driven by the predicted SURS covariance
+    (:func:`naive_section_bootstrap`) overestimates the sampling error several-fold; no unbiased
+    variance estimator exists from one systematic sample (Cochran 1977, ch. 8). It is kept only as a
+    labelled comparison. The defensible alternatives here: :func:`parametric_fraction_bootstrap`,
+    driven by the predicted SURS covariance
     (:func:`bayestissue.stereology.sections.fraction_covariance`), drawing fractions jointly on the
-    simplex by a
-    logistic-normal distribution, and :func:`cluster_fraction_bootstrap` over genuinely independent
-    units
-    (blocks, animals).
+    simplex by a logistic-normal distribution, and :func:`cluster_fraction_bootstrap` over genuinely
+    independent units (blocks, animals).
 
 Directions
     :func:`bootstrap_cells` resamples whole traced cells (the independent units of the line system,
-    not their
-    segments), refits, and :func:`align_axes` matches each replicate's axes to the reference axes
-    by the axial
-    angle with an optimal assignment (Hungarian algorithm), so labels do not switch.
-    :func:`confidence_cones`
-    gives the 95 % cone half-angles.
+    not their segments), refits, and :func:`align_axes` matches each replicate's axes to the
+    reference axes by the axial angle with an optimal assignment (Hungarian algorithm), so labels do
+    not switch. :func:`confidence_cones` gives the 95 % cone half-angles.
 
 The joint replicates handed to the mechanics are assembled in
 :mod:`bayestissue.stereology.replicates`.
@@ -63,13 +56,11 @@ def _n_boot(n_boot) -> int:
 def logistic_normal_draws(mean, cov, n: int, *, rng=None) -> np.ndarray:
     r"""Draw compositions on the simplex with approximately the given mean and covariance.
 
-    Additive log-ratio :math:`y_j = \log(V_j / V_K)`, :math:`j < K`, with covariance
-    :math:`\Sigma_y = J \Sigma_V J^T`, :math:`J_{jl} = \delta_{jl}/V_j + 1/V_K` (delta method,
-    using the first
-    K-1 rows/columns of ``cov``), drawn as :math:`y \sim N(\operatorname{alr}(V), \Sigma_y)` and
-    mapped back by
-    the softmax. Every draw lies in (0, 1) and sums to 1; mean and covariance match to first order
-    in the CE.
+    Additive log-ratio :math:`y_j = \log(V_j / V_K)`, :math:`j < K`, with covariance :math:`\Sigma_y
+    = J \Sigma_V J^T`, :math:`J_{jl} = \delta_{jl}/V_j + 1/V_K` (delta method, using the first K-1
+    rows/columns of ``cov``), drawn as :math:`y \sim N(\operatorname{alr}(V), \Sigma_y)` and mapped
+    back by the softmax. Every draw lies in (0, 1) and sums to 1; mean and covariance match to first
+    order in the CE.
 
     Parameters
     ----------
@@ -99,14 +90,12 @@ def logistic_normal_draws(mean, cov, n: int, *, rng=None) -> np.ndarray:
     return e / e.sum(axis=1, keepdims=True)
 
 
-def parametric_fraction_bootstrap(
-    counts, *, n_boot: int = 1000, rng=None, **ce_kwargs
-) -> np.ndarray:
+def parametric_fraction_bootstrap(counts, *, n_boot: int = 1000, rng=None, **ce_kwargs) -> np.ndarray:
     """Design-aware parametric bootstrap of the volume fractions of one systematic sample.
 
     The fractions are drawn by :func:`logistic_normal_draws` around the ratio estimates (paper eq.
-    1) with the
-    covariance predicted for SURS by :func:`bayestissue.stereology.sections.fraction_covariance`.
+    1) with the covariance predicted for SURS by
+    :func:`bayestissue.stereology.sections.fraction_covariance`.
 
     Parameters
     ----------
@@ -141,9 +130,7 @@ def cluster_fraction_bootstrap(counts, groups, *, n_boot: int = 1000, rng=None) 
     Q = np.asarray(counts, dtype=float)
     g = np.asarray(groups)
     if g.shape != Q.shape[:1]:
-        raise ValidationError(
-            "groups", f"shape {g.shape}", f"({Q.shape[0]},) one label per section"
-        )
+        raise ValidationError("groups", f"shape {g.shape}", f"({Q.shape[0]},) one label per section")
     labels, inv = np.unique(g, return_inverse=True)
     if labels.size < 2:
         raise ValidationError(
@@ -221,8 +208,7 @@ def bootstrap_cells(
     ----------
     cell_ids : (n_segments,) id of the traced cell of each segment.
     estimator : ``f(segment_indices) -> (axes (k, 3), shares (k,))`` fitting the chosen segments
-        (with
-        repeats, so resampled cells count as often as drawn).
+        (with repeats, so resampled cells count as often as drawn).
     n_boot : number of replicates. rng : seed or Generator.
 
     Returns

@@ -44,9 +44,7 @@ def test_tension_is_chi2_distributed_without_shift_and_large_with():
     qs = np.array(qs)
     assert np.mean(qs) == pytest.approx(2.0, abs=0.3)  # chi2(2) has mean 2
     assert np.mean(chi2.sf(qs, 2) < 0.05) == pytest.approx(0.05, abs=0.03)
-    A, ya, B, yb = _two_experiments(
-        rng, np.array([2.0, 2.0])
-    )  # negative control: E[Q] ~ 8/(1/40+1/30)
+    A, ya, B, yb = _two_experiments(rng, np.array([2.0, 2.0]))  # negative control: E[Q] ~ 8/(1/40+1/30)
     qj = _chi2_min(np.vstack([A, B]), np.concatenate([ya, yb]))
     t = tension(qj, [_chi2_min(A, ya), _chi2_min(B, yb)], 2)
     assert t["p_value"] < 1e-4 and t["sigma"] > 3.5
@@ -82,9 +80,7 @@ def test_leave_out_elpd_exact_and_psis():
     # closed form: y_B ~ N(m_a 1, I + s_a^2 11^T)
     cov = np.eye(5) + s_a**2
     d = yb - m_a
-    closed = -0.5 * (
-        d @ np.linalg.solve(cov, d) + np.linalg.slogdet(cov)[1] + 5 * np.log(2 * np.pi)
-    )
+    closed = -0.5 * (d @ np.linalg.solve(cov, d) + np.linalg.slogdet(cov)[1] + 5 * np.log(2 * np.pi))
     assert exact == pytest.approx(closed, abs=0.02)
     ps = psis_leave_out(gaussian_loglik(yb, th_j[:, None] * np.ones(5), 1.0))
     assert ps["khat"] < 0.7

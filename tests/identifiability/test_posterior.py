@@ -27,9 +27,7 @@ def _kl_normal(m1, s1, m0, s0):
 def test_contraction_and_kl_match_closed_forms():
     rng = np.random.default_rng(1)
     m0, s0 = 0.0, 2.0
-    post = np.column_stack(
-        [rng.normal(0.5, 0.5, N), rng.normal(-1.0, 1.0, N), rng.normal(0, 2.0, N)]
-    )
+    post = np.column_stack([rng.normal(0.5, 0.5, N), rng.normal(-1.0, 1.0, N), rng.normal(0, 2.0, N)])
     prior = rng.normal(m0, s0, size=(4 * N, 3))
     c = contraction(post, prior)
     np.testing.assert_allclose(c, [1 - 0.25 / 4, 1 - 1 / 4, 0.0], atol=0.02)
@@ -72,9 +70,7 @@ def test_bound_flags():
     f = bound_flags(np.column_stack([flat, piled, mid]), 0.0, 1.0)
     assert list(f["at_upper"]) == [False, True, False]
     assert list(f["at_lower"]) == [False, False, False]
-    assert f["share_upper"][1] == pytest.approx(
-        2 * norm.cdf(0.02 / 0.03) - 1, abs=0.01
-    )  # half-normal
+    assert f["share_upper"][1] == pytest.approx(2 * norm.cdf(0.02 / 0.03) - 1, abs=0.01)  # half-normal
 
 
 def test_posterior_validation():

@@ -117,9 +117,7 @@ def test_nan_simulations_do_not_crash_the_profile():
             else (np.full(X.size, np.nan) if theta[0] > 1.5 else r)
         )
 
-    pr = profile_likelihood(
-        res, [1.0, 2.0, -1.0], 1, lower=[-10] * 3, upper=[10] * 3, log=False, batched=True
-    )
+    pr = profile_likelihood(res, [1.0, 2.0, -1.0], 1, lower=[-10] * 3, upper=[10] * 3, log=False, batched=True)
     assert np.all(np.isfinite(pr.delta_chi2))
 
 

@@ -68,7 +68,8 @@ def test_analysis_svd_and_standard_errors():
     P = null.T @ null
     for v in (np.array([1, -1, 0, 0, 0]) / np.sqrt(2), np.eye(5)[4]):
         np.testing.assert_allclose(P @ v, v, atol=1e-6)
-    assert np.all(np.isinf(res.std_error_log[[0, 1, 4]]))
+    assert np.isinf(res.std_error_log[4])  # no sensitivity
+    assert np.all(res.std_error_log[[0, 1]] > 1e3 / res.singular_values[0])  # exactly collinear pair
     assert np.all(np.isfinite(res.std_error_log[[2, 3]]))
     assert res.condition_number == np.inf or res.condition_number > 1e6
     assert {s for s, _ in res.largest_subsets} == {("a", "c", "d"), ("b", "c", "d")}
@@ -103,3 +104,14 @@ def test_sensitivity_validation():
         analyse_sensitivities(np.ones((3, 2)), [1, 1, 1], "abc")
     with pytest.raises(ValidationError, match="threshold"):
         largest_identifiable_subsets([], threshold=0)
+
+
+def test_round_off_sized_column_counts_as_zero():
+    rng = np.random.default_rng(1)
+    S = rng.normal(size=(100, 3))
+    S[:, 2] = 1e-13 * rng.normal(size=100)  # finite-difference noise of an insensitive parameter
+    assert collinearity_index(S, [0, 2]) == np.inf
+    assert dict(collinearity_table(S))[(0, 2)] == np.inf
+    res = analyse_sensitivities(S, np.ones(3), ("x", "y", "z"))
+    assert res.std_error_log[2] == np.inf
+    assert res.largest_subsets[0][0] == ("x", "y")

@@ -115,9 +115,7 @@ def test_replicate_tissues_and_pooling():
     assert pooled.shape == (40000, 1)
     assert np.var(pooled) == pytest.approx(2.0, rel=0.05)
     base = rng.normal(0, 1, (20000, 1))
-    assert width_ratio(base, pooled)[0] == pytest.approx(
-        interval_width(pooled)[0] / (2 * 1.6449), rel=0.05
-    )
+    assert width_ratio(base, pooled)[0] == pytest.approx(interval_width(pooled)[0] / (2 * 1.6449), rel=0.05)
     with pytest.raises(ValidationError, match="draws"):
         pool_draws([])
     with pytest.raises(ValidationError, match="n_per"):
@@ -135,3 +133,44 @@ def test_replicate_tissue_rejects_bad_fraction_sum():
     tis = replicate_tissues(reps, base=PAPER_TISSUE)  # renormalised to sum 1
     assert tis[0].phi_matrix + tis[0].phi_fibres.sum() == pytest.approx(1.0)
     assert replace(tis[0]).bulk_kpa == PAPER_TISSUE.bulk_kpa
+
+
+def test_drop_stuck_draws_removes_far_tail_only():
+    from bayestissue.identifiability.calibration import CalibrationOutcome, drop_stuck_draws
+
+    rng = np.random.default_rng(3)
+    draws = rng.uniform(size=(1000, 11))
+    ll = -0.5 * rng.chisquare(11, size=1000)  # a healthy posterior: 2(max - ll) ~ chi2_11
+    ll[:7] = -1e5  # seven draws of stuck walkers
+    o = CalibrationOutcome(
+        "x",
+        tuple("abcdefghijk"),
+        np.zeros(11),
+        np.ones(11),
+        np.ones(11),
+        1.0,
+        np.ones(1),
+        np.zeros(11),
+        draws=draws,
+        u=draws,
+        loglik=ll[:, None],
+    )
+    c = drop_stuck_draws(o)
+    assert c.n_dropped == 7 and c.draws.shape[0] == 993
+    assert o.draws.shape[0] == 1000  # the input is not modified
+
+
+@pytest.mark.slow
+def test_run_calibration_end_to_end_on_a_replica(t2):
+    from bayestissue.identifiability.calibration import CalibrationTask, run_calibration
+
+    p2 = np.asarray(PAPER_PARAMETERS["T2"])
+    exp = synthetic_replica(t2, p2, sd=0.02, rng=5)
+    task = CalibrationTask(
+        (exp,), n_starts=0, paper_start=False, extra_starts=(tuple(p2),), n_steps=80, n_ensembles=2, keep=500, seed=1
+    )
+    o = run_calibration(task)
+    # chi2 at the optimum: about n_obs - n_informed (143 - 3), certainly within 4 sd of chi2_143
+    assert 80 < o.ls_chi2 < 143 + 4 * np.sqrt(2 * 143)
+    assert o.draws.shape[1] == 11 and o.u.min() >= 0 and o.u.max() <= 1
+    assert o.loglik.shape == (o.draws.shape[0], 1)

@@ -14,6 +14,7 @@ from bayestissue.stereology.axial import (
 from bayestissue.stereology.lines import LineSystem
 from bayestissue.stereology.replicates import (
     REPLICATE_COLUMNS,
+    direction_bootstrap,
     fibre_fraction_split,
     fit_fibre_directions,
     fraction_replicates,
@@ -211,6 +212,10 @@ def test_stereology_replicates_pipeline():
             v = np.stack([cols[f"v{k}_{c}"] for c in "xyz"], axis=1)
             np.testing.assert_allclose(np.linalg.norm(v, axis=1), 1.0)
             assert np.all(v @ PAPER_DIRECTIONS[k - 1] >= 0)
+    b = direction_bootstrap(lines, method="watson", n_boot=30, rng=2)
+    assert np.all(b["length_ci_um"][0] <= b["lengths_um"]) and np.all(b["lengths_um"] <= b["length_ci_um"][1])
+    assert b["lengths_um"].sum() == pytest.approx(lines.total_length_um)
+    assert np.all(b["cone_deg"] < 15)
     axes, shares = fit_fibre_directions(lines)
     assert shares.sum() == pytest.approx(1.0)
     with pytest.raises(ValidationError, match="method"):

@@ -1,0 +1,126 @@
+"""``bayestissue fit EXPERIMENT... [--config FILE] --out DIR [--resume]``: Bayesian calibration.
+
+Least squares (the paper's method, then multi-start), emcee ensembles with automatic length, diagnostics;
+writes ``posterior.nc`` (arviz InferenceData with provenance), ``summary.csv``/``summary.md``, the figures
+(``*.png``) and HDF5 checkpoints (``checkpoints/``) into DIR, and prints the summary and the convergence
+verdict.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "fit",
+        help="calibrate the material parameters on one or several experiments (least squares + MCMC)",
+        description=__doc__.splitlines()[0].split(": ", 1)[1],
+    )
+    p.add_argument("experiments", nargs="+", metavar="EXPERIMENT", help="experiment files (TOML)")
+    p.add_argument("--config", help="calibration configuration (TOML; see bayestissue/io/results.py)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--resume", action="store_true", help="continue the checkpointed sampler runs")
+    p.add_argument("--seed", type=int, help="master seed (overrides the configuration)")
+    p.add_argument(
+        "--quick", action="store_true", help="smoke run: 2 starts, short chains (not converged)"
+    )
+    p.add_argument("--no-sample", action="store_true", help="least squares only")
+    p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+QUICK_SAMPLER = {
+    "max_steps": 300,
+    "check_every": 100,
+    "n_ensembles": 4,
+    "prune_rounds": 1,
+    "prune_steps": 50,
+}
+
+
+def run(args) -> int:
+    from bayestissue.inference.calibration import config_from_mapping, run_calibration
+    from bayestissue.inference.summary import table_markdown
+    from bayestissue.io.results import provenance, read_config
+    from bayestissue.mechanics import load_experiment
+
+    t0 = time.perf_counter()
+    cfg_map = read_config(args.config)
+    over = {}
+    if args.seed is not None:
+        over["seed"] = args.seed
+    if args.no_sample:
+        over["sample"] = False
+    if args.quick:
+        over.update(n_starts=2, ls_max_nfev=200, sampler=QUICK_SAMPLER)
+    config = config_from_mapping(cfg_map, **over)
+    experiments = [load_experiment(p) for p in args.experiments]
+    data_paths = []
+    for p, e in zip(args.experiments, experiments, strict=True):
+        data_paths.append(Path(p))
+        if e.source and Path(str(e.source)).is_file() and Path(str(e.source)) != Path(p):
+            data_paths.append(Path(str(e.source)))
+        csv = Path(p).with_suffix(".csv")
+        if csv.is_file() and csv not in data_paths:
+            data_paths.append(csv)
+    prov = provenance(seed=config.seed, config_path=args.config, data_paths=data_paths)
+    out = Path(args.out)
+    bar = None
+    progress = None
+    if config.sample and not args.no_progress:
+        from tqdm import tqdm
+
+        opts = config.sampler
+        bar = tqdm(total=opts.n_ensembles * opts.max_steps, unit="step", desc="sampling")
+        done = {}
+
+        def progress(k, n, nmax):
+            done[k] = n
+            bar.update(sum(done.values()) - bar.n)
+
+    names = ", ".join(e.name for e in experiments)
+    print(f"calibrating on {names}: least squares, then {config.sampler.n_ensembles} ensembles")
+    try:
+        outcome = run_calibration(
+            experiments, config, out_dir=out, resume=args.resume, progress=progress, provenance=prov
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    pf = outcome.paper_fit
+    print(
+        f"paper's least squares: cost {pf.cost:.5g}, {pf.nit} iterations, {pf.time_s:.1f} s, "
+        f"active bounds: {', '.join(pf.active_names()) or 'none'}"
+    )
+    ms = outcome.multistart
+    print(
+        f"multi-start: {len(ms.results)} starts, best cost {ms.best.cost:.5g}, "
+        f"{int(ms.labels.max()) + 1} cost clusters, {ms.time_s:.1f} s"
+    )
+    print(table_markdown(outcome.table, title=f"Calibration on {names}"))
+    if outcome.report is not None:
+        rep = outcome.report
+        print(rep.verdict())
+        print(
+            f"sampling: {rep.time_s:.1f} s, min bulk ESS {rep.ess_bulk.min():.0f} "
+            f"({rep.ess_per_second():.2f} ESS/s), failed forward solves: "
+            f"{outcome.sample.n_failed} of {outcome.sample.n_evaluations}"
+        )
+    if not args.no_figures:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from bayestissue.plotting.inference import calibration_figures
+
+        for name, fig in calibration_figures(outcome).items():
+            fig.savefig(out / f"{name}.png", dpi=110)
+            plt.close(fig)
+    print(f"wrote {out}/ in {time.perf_counter() - t0:.1f} s")
+    return 0

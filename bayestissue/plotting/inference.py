@@ -1,0 +1,264 @@
+"""Figures of a calibration: corner plot, traces, posterior predictive bands, residuals, least-squares
+history (paper Figs. 9 and 11) and the multi-start waterfall. Every function returns its figure; none
+saves or shows.
+
+Parameters on a log-scaled box (moduli and rates) are shown as :math:`\\log_{10}` values: their posteriors
+span decades.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "plot_corner",
+    "plot_traces",
+    "plot_predictive",
+    "plot_residuals",
+    "plot_ls_history",
+    "plot_waterfall",
+    "calibration_figures",
+]
+
+
+def _display(problem, values, idx):
+    """Values of the sampled parameters ``idx`` for display: log10 for log-scaled ones; labels."""
+    specs = problem.parameters.sampled
+    out, labels = [], []
+    for j in idx:
+        v = np.asarray(values)[..., j]
+        if specs[j].scale == "log":
+            out.append(np.log10(v))
+            labels.append(f"log10 {specs[j].name}")
+        else:
+            out.append(v)
+            labels.append(specs[j].name)
+    return np.stack(out, axis=-1), labels
+
+
+def plot_corner(problem, draws, *, least_squares=None, references=None, max_points=20000):
+    """Corner plot of the posterior draws ``(n, ndim)`` (natural units).
+
+    ``least_squares`` (LeastSquaresResult) is marked in blue; ``references`` maps a label (``paper``,
+    ``generating``) to full material vectors (the paper's order, all parameters), marked in red / green.
+    """
+    import corner
+    import matplotlib.pyplot as plt
+
+    draws = np.asarray(draws, dtype=float)
+    if draws.shape[0] > max_points:
+        draws = draws[np.linspace(0, draws.shape[0] - 1, max_points).astype(int)]
+    idx = list(range(problem.ndim))
+    data, labels = _display(problem, draws, idx)
+    truths = None
+    if least_squares is not None:
+        full = problem.nuisance_estimate(least_squares.x)
+        truths, _ = _display(problem, full[None, :], idx)
+        truths = truths[0]
+    fig = plt.figure(figsize=(1.6 * len(idx), 1.6 * len(idx)))
+    corner.corner(
+        data,
+        labels=labels,
+        truths=truths,
+        truth_color="tab:blue",
+        fig=fig,
+        quantiles=(0.05, 0.5, 0.95),
+        plot_datapoints=False,
+        fill_contours=True,
+        levels=(0.5, 0.9),
+        label_kwargs={"fontsize": 8},
+    )
+    names = problem.material.names
+    colors = {"paper": "tab:red", "generating": "tab:green"}
+    for label, vec in (references or {}).items():
+        vals = dict(zip(names, np.asarray(vec, dtype=float), strict=False))
+        full = np.array([vals.get(n, np.nan) for n in problem.names])
+        shown, _ = _display(problem, full[None, :], idx)
+        corner.overplot_lines(fig, shown[0], color=colors.get(label, "k"), ls="--", lw=1)
+    handles = [plt.Line2D([], [], color="tab:blue", label="least squares")]
+    handles += [
+        plt.Line2D([], [], color=colors.get(k, "k"), ls="--", label=k) for k in (references or {})
+    ]
+    fig.legend(handles=handles, loc="upper right", fontsize=10, frameon=False)
+    return fig
+
+
+def plot_traces(sample, *, max_walkers: int = 8):
+    """Traces of every sampled parameter: a few walkers of every ensemble, burn-in shaded."""
+    import matplotlib.pyplot as plt
+
+    problem = sample.problem
+    ndim = problem.ndim
+    ncol = 3
+    nrow = int(np.ceil(ndim / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 1.9 * nrow), sharex=True)
+    axes = np.atleast_1d(axes).ravel()
+    colors = plt.cm.tab10(np.arange(len(sample.ensembles)))
+    for k, ens in enumerate(sample.ensembles):
+        x = problem.parameters.from_unconstrained(ens.chain_z.reshape(-1, ndim))
+        x = x.reshape(ens.chain_z.shape)
+        steps = np.arange(x.shape[0]) * ens.store_thin
+        vals, labels = _display(problem, x, range(ndim))
+        for j in range(ndim):
+            ax = axes[j]
+            ax.plot(steps, vals[:, :max_walkers, j], color=colors[k], lw=0.4, alpha=0.6)
+            if k == 0:
+                ax.set_ylabel(labels[j], fontsize=8)
+                ax.axvspan(0, ens.burn_in, color="0.9", zorder=-1)
+    for ax in axes[ndim:]:
+        ax.set_visible(False)
+    for ax in axes[-ncol:]:
+        ax.set_xlabel("step")
+    fig.suptitle("traces (colour = ensemble; shaded: discarded burn-in of ensemble 0)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def plot_predictive(
+    time_s, observed, model_draws, *, least_squares_fit=None, noisy_draws=None, ax=None, title=None
+):
+    """Posterior predictive bands (50 % and 90 %) of the model curve over the data.
+
+    Parameters
+    ----------
+    time_s, observed : (n_obs,) data.
+    model_draws : (n_draws, n_obs) noise-free model predictions for posterior draws.
+    least_squares_fit : (n_obs,) prediction at the least-squares estimate.
+    noisy_draws : (n_draws, n_obs) predictions with noise (dotted 90 % band of new observations).
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7, 4))
+    q = np.quantile(model_draws, [0.05, 0.25, 0.5, 0.75, 0.95], axis=0)
+    ax.fill_between(time_s, q[0], q[4], color="tab:orange", alpha=0.3, lw=0, label="model 90 %")
+    ax.fill_between(time_s, q[1], q[3], color="tab:orange", alpha=0.6, lw=0, label="model 50 %")
+    if noisy_draws is not None:
+        qn = np.quantile(noisy_draws, [0.05, 0.95], axis=0)
+        ax.plot(time_s, qn[0], ":", color="tab:orange", lw=1, label="new data 90 %")
+        ax.plot(time_s, qn[1], ":", color="tab:orange", lw=1)
+    ax.plot(time_s, observed, ".", color="k", ms=2.5, label="data")
+    if least_squares_fit is not None:
+        ax.plot(time_s, least_squares_fit, "-", color="tab:blue", lw=1, label="least squares")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("displacement (mm)")
+    if title:
+        ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    return ax.figure
+
+
+def _acf(r, max_lag):
+    r = np.asarray(r, dtype=float) - np.mean(r)
+    denom = np.sum(r**2)
+    return np.array([np.sum(r[k:] * r[: r.size - k]) / denom for k in range(max_lag + 1)])
+
+
+def plot_residuals(time_s, residuals, *, max_lag: int = 40, title=None):
+    """Residuals over time and their autocorrelation function (with the white-noise 95 % band)."""
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4), gridspec_kw={"width_ratios": [2, 1]})
+    a1.plot(time_s, residuals, ".", ms=2.5, color="k")
+    a1.axhline(0, color="0.5", lw=0.8)
+    a1.set_xlabel("time (s)")
+    a1.set_ylabel("data - model (mm)")
+    lag = min(max_lag, len(residuals) - 2)
+    acf = _acf(residuals, lag)
+    a2.bar(np.arange(lag + 1), acf, color="tab:blue", width=0.8)
+    band = 1.96 / np.sqrt(len(residuals))
+    a2.axhspan(-band, band, color="0.85", zorder=-1)
+    a2.set_xlabel("lag (data steps)")
+    a2.set_ylabel("autocorrelation")
+    a2.set_title(f"lag-1 autocorrelation {acf[1]:.2f}", fontsize=9)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_ls_history(result, *, ax=None, title=None):
+    """Scaled parameters :math:`|\\bar\\alpha| = |\\alpha / \\alpha^0|` per iteration, semilog (paper
+    Figs. 9 and 11)."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7, 4))
+    h = np.abs(result.history_scaled)
+    it = np.arange(h.shape[0])
+    styles = ["-", "--", ":", "-."]
+    for j, name in enumerate(result.names):
+        ax.semilogy(it, np.maximum(h[:, j], 1e-12), styles[j % 4], lw=1.2, label=name)
+    ax.set_xlabel("iteration")
+    ax.set_ylabel("|scaled parameter|")
+    if title:
+        ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7, ncol=2)
+    return ax.figure
+
+
+def plot_waterfall(costs, *, labels=None, ax=None, title=None):
+    """Final costs of a multi-start least squares, sorted (a *waterfall*); colour = cluster label."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 3.5))
+    costs = np.sort(np.asarray(costs, dtype=float))
+    labels = np.zeros(costs.size, dtype=int) if labels is None else np.asarray(labels)
+    ax.scatter(np.arange(costs.size), costs, c=labels, cmap="tab10", vmin=0, vmax=9, zorder=3)
+    ax.plot(np.arange(costs.size), costs, color="0.6", lw=0.8)
+    ax.set_yscale("log")
+    ax.set_xlabel("start (sorted by final cost)")
+    ax.set_ylabel("final cost F")
+    if title:
+        ax.set_title(title, fontsize=10)
+    return ax.figure
+
+
+def calibration_figures(outcome) -> dict:
+    """All figures of a :class:`~bayestissue.inference.calibration.CalibrationOutcome`, by name.
+
+    Names: ``ls_history``, ``waterfall``, and with a posterior ``corner``, ``traces``,
+    ``predictive_<exp>``, ``residuals_<exp>``. Returns figures; the caller saves and closes them.
+    """
+    problem = outcome.problem
+    figs = {
+        "ls_history": plot_ls_history(
+            outcome.paper_fit,
+            title=f"paper's least squares from its initial guess: cost {outcome.paper_fit.cost:.4g}",
+        ),
+        "waterfall": plot_waterfall(
+            outcome.multistart.costs,
+            labels=outcome.multistart.labels,
+            title="multi-start least squares (colour = cluster)",
+        ),
+    }
+    ls_pred = problem.predict_material(outcome.best.x[None, :])
+    for k, e in enumerate(problem.experiments):
+        figs[f"residuals_{e.name}"] = plot_residuals(
+            e.time_s, e.observed - ls_pred[k][0], title=f"{e.name}: least-squares residuals"
+        )
+    if outcome.sample is None:
+        return figs
+    refs = {}
+    if len(outcome.references) == 1:
+        refs = next(iter(outcome.references.values()))
+        refs = {k: v for k, v in refs.items() if k in ("paper", "generating")}
+    figs["corner"] = plot_corner(
+        problem, outcome.sample.flat(), least_squares=outcome.best, references=refs
+    )
+    figs["traces"] = plot_traces(outcome.sample)
+    pp = outcome.idata.posterior_predictive
+    for k, e in enumerate(problem.experiments):
+        tag = [v for v in pp.data_vars if not v.endswith("_model")][k]
+        model = pp[f"{tag}_model"].values.reshape(-1, e.time_s.size)
+        noisy = pp[tag].values.reshape(-1, e.time_s.size)
+        figs[f"predictive_{e.name}"] = plot_predictive(
+            e.time_s,
+            e.observed,
+            model,
+            least_squares_fit=ls_pred[k][0],
+            noisy_draws=noisy,
+            title=f"{e.name}: posterior predictive",
+        )
+    return figs
