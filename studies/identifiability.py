@@ -44,6 +44,7 @@ from bayestissue.mechanics import (  # noqa: E402
     PAPER_PARAMETERS,
     load_experiment,
     param_names,
+    simulate,
 )
 from bayestissue.parallel import fan_out, start_client  # noqa: E402
 from bayestissue.plotting.identifiability import (  # noqa: E402
@@ -78,10 +79,27 @@ class Mode:
     n_replicates: int  # cause 2
     replicate_steps: int
     keep: int = 4000
+    ls_nfev: int = 400  # evaluation cap per least-squares fit
+    corners: bool = True  # corner plots (slow)
 
 
 MODES = {
-    "quick": Mode("quick", 120, 2, 0, ("mu", "ginf1", "beta2"), 6, 1e-4, (0.1, 1.0, 10.0), (1.0,), 2, 60, keep=1000),
+    "quick": Mode(
+        "quick",
+        120,
+        2,
+        0,
+        ("mu", "ginf1", "beta2"),
+        6,
+        1e-4,
+        (0.1, 1.0, 10.0),
+        (1.0,),
+        2,
+        60,
+        keep=1000,
+        ls_nfev=60,
+        corners=False,
+    ),
     "default": Mode(
         "default",
         700,
@@ -182,11 +200,19 @@ def base_tasks(args):
     e1, e2 = experiments(args)
     m = args.mode
     starts = (tuple(PAPER_PARAMETERS["T1"]), tuple(PAPER_PARAMETERS["T2"]))
-    kw = dict(n_steps=m.n_steps, n_ensembles=m.n_ensembles, n_starts=m.n_starts, extra_starts=starts, keep=m.keep)
+    full = m.name != "quick"  # quick: each test starts only from its own Table 1 estimate
+    kw = dict(
+        n_steps=m.n_steps,
+        n_ensembles=m.n_ensembles,
+        n_starts=m.n_starts,
+        keep=m.keep,
+        max_nfev=m.ls_nfev,
+        paper_start=full,
+    )
     return [
-        CalibrationTask((e1,), seed=args.seed + 1, label="T1", **kw),
-        CalibrationTask((e2,), seed=args.seed + 2, label="T2", **kw),
-        CalibrationTask((e1, e2), seed=args.seed + 3, label="joint", **kw),
+        CalibrationTask((e1,), seed=args.seed + 1, label="T1", extra_starts=starts if full else starts[:1], **kw),
+        CalibrationTask((e2,), seed=args.seed + 2, label="T2", extra_starts=starts if full else starts[1:], **kw),
+        CalibrationTask((e1, e2), seed=args.seed + 3, label="joint", extra_starts=starts, **kw),
     ]
 
 
@@ -312,7 +338,7 @@ def main(argv=None) -> int:
         out / "identifiability_kl.png",
     )
     savefig(plot_marginals_overlay({lab: cal[lab].u for lab in LABELS}, NAMES), out / "posterior_marginals.png")
-    for lab in LABELS:
+    for lab in LABELS if args.mode.corners else ():
         fig = plot_corner_overlay({lab: cal[lab].u}, NAMES)
         savefig(fig, out / f"posterior_corner_{lab}.png")
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
@@ -401,11 +427,28 @@ def main(argv=None) -> int:
             "kl": post[lab]["kl"][fam1],
             "sensitivity": loc[lab].delta_msqr[fam1],
             "uninformed": bool(
-                np.all(np.abs(post[lab]["contraction"][fam1]) < 0.2) and np.all(post[lab]["kl"][fam1] < 0.15)
+                np.all(np.abs(post[lab]["contraction"][fam1]) < 0.3) and np.all(post[lab]["kl"][fam1] < 0.1)
             ),
         }
         for lab in LABELS
     }
+    e1, e2 = experiments(args)
+    summary["fibre1_tension"] = {}
+    for lab in LABELS:
+        row = {}
+        for e in (e1, e2):
+            r = simulate(e, cal[lab].ls_x, full=True)
+            row[e.name] = {
+                "max_E22": float(r.strain[0, :, 1].max()),
+                "max_tau1_kpa": float(r.tension_kpa[0, :, 0].max()),
+            }
+        summary["fibre1_tension"][lab] = row
+    x = np.asarray(cal["T1"].ls_x, float)
+    swapped = x.copy()
+    swapped[5:8], swapped[8:11] = x[8:11], x[5:8]
+    summary["swap_symmetry_max_abs_mm"] = max(
+        float(np.max(np.abs(simulate(e, x) - simulate(e, swapped)))) for e in (e1, e2)
+    )
     summary["timings_s"] = T.done()
     (out / "identifiability_summary.json").write_text(json.dumps(_f(summary), indent=1))
     print(f"  wrote {out / 'identifiability_summary.json'}")

@@ -26,6 +26,11 @@ HERE = Path(__file__).resolve().parent
 STAGES = (
     ("forward model", "forward_figure.py"),
     ("stereology", "stereology_figures.py"),
+    ("micrographs", "micrograph_validation.py"),
+    ("calibration", "calibrate.py"),
+    ("identifiability", "identifiability.py"),
+    ("T1 vs T2", "t1_vs_t2.py"),
+    ("report", "report.py"),
 )
 
 

@@ -197,6 +197,8 @@ def main(argv=None) -> int:
         T.stage("causes 2+3: replicates, angle, scale")
         reps, pick, rtasks = replicate_tasks(args, cal, e1, e2)
         starts = (tuple(cal["joint"].ls_x), tuple(cal["T1"].ls_x), tuple(cal["T2"].ls_x))
+        if m.name == "quick":
+            starts = starts[:1]
         spec_tasks = [
             CalibrationTask(
                 (e1, e2),
@@ -206,15 +208,19 @@ def main(argv=None) -> int:
                 extra_starts=starts,
                 seed=args.seed + 11,
                 label="joint+scale",
+                max_nfev=m.ls_nfev,
+                paper_start=m.name != "quick",
             ),
             CalibrationTask(
                 (e1, e2),
                 specimen=("angle", "T2"),
                 n_steps=0,
                 n_starts=0,
+                paper_start=False,
                 extra_starts=starts,
                 seed=args.seed + 12,
                 label="joint+angle",
+                max_nfev=m.ls_nfev,
             ),
         ]
         outs = fan_out(run_calibration, spec_tasks + rtasks, cache_dir=args.cache_dir, client=client, salt=ids.SALT)
@@ -267,7 +273,8 @@ def main(argv=None) -> int:
 
     # ---- figures
     ids.savefig(plot_marginals_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_marginals.png")
-    ids.savefig(plot_corner_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_corner.png")
+    if m.corners:
+        ids.savefig(plot_corner_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_corner.png")
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5))
     for ax, key, exp in (
         (axes[0, 0], "T1|T1", e1),
@@ -288,10 +295,13 @@ def main(argv=None) -> int:
         )
     fig.tight_layout()
     ids.savefig(fig, out / "t1_vs_t2_cross_prediction.png")
-    marks = {
-        p: np.array([rates["profiles"].get(f, {}).get(p, "") == "identifiable" for f in rates["factors"]])
-        for p in ("beta2", "beta3")
-    }
+    marks = {}
+    for p in ("beta2", "beta3"):
+        row = []
+        for f in rates["factors"]:
+            pr = rates["profiles"].get(f)
+            row.append(-1 if pr is None else int(pr[p] == "identifiable"))
+        marks[p] = np.array(row)
     ids.savefig(plot_rate_study(rates["factors"], rates["se_log"], marks=marks), out / "t1_vs_t2_rates.png")
     if cut:
         ids.savefig(
@@ -307,7 +317,11 @@ def main(argv=None) -> int:
             out / "t1_vs_t2_stereology_widths.png",
         )
         ids.savefig(
-            plot_marginals_overlay({"T1": cut["T1"]["pooled"], "T2": cut["T2"]["pooled"]}, NAMES),
+            plot_marginals_overlay(
+                {"T1": cut["T1"]["pooled"], "T2": cut["T2"]["pooled"]},
+                NAMES,
+                title="Cut posteriors: pooled over stereology replicates (dotted: the prior)",
+            ),
             out / "t1_vs_t2_cut_marginals.png",
         )
 

@@ -17,7 +17,7 @@ from bayestissue import __version__
 __all__ = ["main", "build_parser"]
 
 #: Sub-command modules, in the order ``--help`` lists them.
-_COMMANDS = ("simulate", "stereology")
+_COMMANDS = ("simulate", "fit", "stereology", "micrographs")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,9 +1,9 @@
 """``bayestissue fit EXPERIMENT... [--config FILE] --out DIR [--resume]``: Bayesian calibration.
 
-Least squares (the paper's method, then multi-start), emcee ensembles with automatic length, diagnostics;
-writes ``posterior.nc`` (arviz InferenceData with provenance), ``summary.csv``/``summary.md``, the figures
-(``*.png``) and HDF5 checkpoints (``checkpoints/``) into DIR, and prints the summary and the convergence
-verdict.
+Least squares (the paper's method, then multi-start), emcee ensembles with automatic length,
+diagnostics; writes ``posterior.nc`` (arviz InferenceData with provenance),
+``summary.csv``/``summary.md``, the figures (``*.png``) and HDF5 checkpoints (``checkpoints/``) into
+DIR, and prints the summary and the convergence verdict.
 """
 
 from __future__ import annotations
@@ -25,9 +25,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--resume", action="store_true", help="continue the checkpointed sampler runs")
     p.add_argument("--seed", type=int, help="master seed (overrides the configuration)")
-    p.add_argument(
-        "--quick", action="store_true", help="smoke run: 2 starts, short chains (not converged)"
-    )
+    p.add_argument("--quick", action="store_true", help="smoke run: 2 starts, short chains (not converged)")
     p.add_argument("--no-sample", action="store_true", help="least squares only")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -76,10 +74,12 @@ def run(args) -> int:
         from tqdm import tqdm
 
         opts = config.sampler
-        bar = tqdm(total=opts.n_ensembles * opts.max_steps, unit="step", desc="sampling")
         done = {}
 
         def progress(k, n, nmax):
+            nonlocal bar
+            if bar is None:  # created on the first report, after the input checks
+                bar = tqdm(total=opts.n_ensembles * opts.max_steps, unit="step", desc="sampling")
             done[k] = n
             bar.update(sum(done.values()) - bar.n)
 

@@ -159,6 +159,7 @@ class CalibrationTask:
         initial value is appended when the problem has one), e.g. the paper's Table 1 estimates.
     n_steps : emcee steps per ensemble (0: least squares only); n_ensembles, n_walkers : ensemble layout.
     keep : number of posterior draws kept (thinned evenly).
+    max_nfev : function-evaluation cap of each least-squares fit.
     paper_start : also start from the paper's initial guess (the multi-start); False with
         ``n_starts=0`` fits only from ``extra_starts`` (warm starts, e.g. per stereology replicate).
     seed : seed of the multi-start and the sampler.
@@ -175,6 +176,7 @@ class CalibrationTask:
     seed: int = 0
     label: str = ""
     paper_start: bool = True
+    max_nfev: int = 400
 
 
 @dataclass
@@ -255,14 +257,14 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
     fits = []
     if task.paper_start or task.n_starts > 0:
         kw = {"include_initial": task.paper_start}
-        fits = list(fit_multistart(problem, n_starts=task.n_starts, rng=rng, max_nfev=400, **kw).results)
+        fits = list(fit_multistart(problem, n_starts=task.n_starts, rng=rng, max_nfev=task.max_nfev, **kw).results)
     mat = problem.material
     for start in task.extra_starts:
         x0 = np.asarray(start, float)
         if x0.size == mat.n_sampled - 1:
             x0 = np.append(x0, mat.initial[-1])
         x0 = np.clip(x0, mat.lower, mat.upper)
-        fits.append(fit_least_squares(problem, x0, max_nfev=400))
+        fits.append(fit_least_squares(problem, x0, max_nfev=task.max_nfev))
     if not fits:
         raise ValidationError("task", "no least-squares start", "paper_start, n_starts > 0 or extra_starts")
     best = min(fits, key=lambda r: r.cost)

@@ -312,13 +312,13 @@ def run_calibration(
         outcome.table = summary_table(problem, best, None, None, references=refs)
         _write(outcome, out_dir)
         return outcome
-    center = problem.nuisance_estimate(best.x)
+    centers, covs = _ensemble_centres(problem, [paper_fit, *multi.results], best, config)
     ckpt = None if out_dir is None else Path(out_dir) / "checkpoints"
     t0 = time.perf_counter()
     sample = sample_posterior(
         problem,
-        center,
-        cov=best.cov,
+        centers,
+        cov=covs,
         options=config.sampler,
         checkpoint=ckpt,
         resume=resume,
@@ -348,6 +348,23 @@ def run_calibration(
     outcome.table = summary_table(problem, best, sample, report, references=refs)
     _write(outcome, out_dir)
     return outcome
+
+
+def _ensemble_centres(problem, fits, best, config):
+    """One start per ensemble: distinct least-squares optima whose cost is within
+    :math:`\\Delta\\chi^2 = 2\\Delta F / s^2 \\le 20` of the best (plausible modes), best first, cycled
+    over the ensembles. Over-dispersed starts let the between-ensemble R-hat detect modes that a
+    single start would never visit."""
+    s2 = max(best.s2, 1e-300)
+    plausible = sorted((r for r in fits if 2.0 * (r.cost - best.cost) / s2 <= 20.0), key=lambda r: r.cost)
+    distinct = []
+    for r in plausible:
+        u = problem.material.to_unit(r.x[None, :])[0]
+        if all(np.max(np.abs(u - problem.material.to_unit(d.x[None, :])[0])) > 0.02 for d in distinct):
+            distinct.append(r)
+    n = config.sampler.n_ensembles
+    chosen = [distinct[k % len(distinct)] for k in range(n)]
+    return np.array([problem.nuisance_estimate(r.x) for r in chosen]), [r.cov for r in chosen]
 
 
 def _write(outcome: CalibrationOutcome, out_dir) -> None:

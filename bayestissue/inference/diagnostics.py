@@ -81,11 +81,11 @@ def ess_walkers(draws, *, method: str = "bulk") -> np.ndarray:
     return np.array([float(az.ess(chains[:, :, j], method=method)) for j in range(ndim)])
 
 
-def stuck_walkers(acceptance, *, rel: float = 0.3, floor: float = 0.02) -> np.ndarray:
+def stuck_walkers(acceptance, *, rel: float = 0.3, floor: float = 0.0) -> np.ndarray:
     """Boolean flags for walkers whose acceptance is below ``max(floor, rel * median
     acceptance)``."""
     acc = np.asarray(acceptance, dtype=float)
-    return acc < max(floor, rel * float(np.median(acc)))
+    return (acc < max(floor, rel * float(np.median(acc)))) | (acc == 0)
 
 
 @dataclass(frozen=True)

@@ -181,9 +181,7 @@ class ParameterSet:
         is_lu = np.array([s.prior == "loguniform" for s in self.sampled])
         const = np.array(
             [
-                -math.log(math.log(s.upper / s.lower))
-                if s.prior == "loguniform"
-                else -math.log(s.upper - s.lower)
+                -math.log(math.log(s.upper / s.lower)) if s.prior == "loguniform" else -math.log(s.upper - s.lower)
                 for s in self.sampled
             ]
         )

@@ -18,7 +18,6 @@ Groups:
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping
 
@@ -69,8 +68,10 @@ def to_inference_data(
     z = sample.kept_z()  # (E, D, W, P)
     lpz = sample.kept_log_prob()  # (E, D, W)
     n_ens, n_d, nw, ndim = z.shape
-    thin = max(1, math.ceil(n_ens * n_d * nw / max_draws))
-    z, lpz = z[:, ::-1][:, ::thin][:, ::-1], lpz[:, ::-1][:, ::thin][:, ::-1]
+    keep = min(n_d, max(1, max_draws // (n_ens * nw)))
+    rows = np.unique(np.round(np.linspace(0, n_d - 1, keep)).astype(int))
+    thin = n_d / rows.size
+    z, lpz = z[:, rows], lpz[:, rows]
     n_d = z.shape[1]
     # chains = walkers, ensemble-major: (E, D, W, P) -> (E*W, D, P)
     zc = z.transpose(0, 2, 1, 3).reshape(n_ens * nw, n_d, ndim)
@@ -143,7 +144,7 @@ def to_inference_data(
         "n_ensembles": n_ens,
         "walkers_per_ensemble": nw,
         "chains_are": "walkers (ensemble-major); R-hat over chains is not valid, see attrs rhat_*",
-        "thin_stored": thin,
+        "thin_stored": float(thin),
         "n_failed_forward": sample.n_failed,
         "n_forward_evaluations": sample.n_evaluations,
         "sampling_time_s": float(sample.time_s),

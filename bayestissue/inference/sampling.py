@@ -242,9 +242,9 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
 
     ``options.prune_rounds`` chunks of ``options.prune_steps`` steps; after each, walkers whose
     log-posterior is more than :math:`d/2 + 5\\sqrt{d/2} + 5` below the best walker (far outside the
-    :math:`\\chi^2_d` range of a converged ensemble) are moved onto randomly chosen good walkers with a
-    small jitter. Stuck walkers otherwise stay stuck for a very long time under ensemble moves. This
-    phase is discarded; it is deterministic given ``seed``.
+    :math:`\\chi^2_d` range of a converged ensemble) are moved onto randomly chosen good walkers
+    with a small jitter. Stuck walkers otherwise stay stuck for a very long time under ensemble
+    moves. This phase is discarded; it is deterministic given ``seed``.
     """
     if options.prune_rounds == 0 or options.prune_steps == 0:
         return p0
@@ -270,9 +270,23 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
     return state.coords
 
 
+def _length_ok(chain: np.ndarray, options: SamplerOptions) -> tuple[bool, np.ndarray]:
+    """The automatic-length criterion at the end of ``chain``: ``n >= tau_factor * max(tau)`` and every
+    tau changed by less than ``tau_rtol`` since ``check_every`` steps earlier; returns (ok, tau)."""
+    n = chain.shape[0]
+    tau = _tau(chain)
+    every = options.check_every
+    if n < 2 * every or n < options.min_steps:
+        return False, tau
+    prev = _tau(chain[: n - every])
+    stable = bool(np.all(np.abs(prev - tau) / tau < options.tau_rtol))
+    return bool(n >= options.tau_factor * np.max(tau) and stable), tau
+
+
 def _tau(chain: np.ndarray) -> np.ndarray:
     """emcee's integrated autocorrelation time (walker-averaged autocorrelation function, window
-    ``c = 5``), skipping walkers that have not moved (their autocorrelation is undefined); a parameter
+    ``c = 5``), skipping walkers that have not moved (their autocorrelation is undefined); a
+    parameter
     no walker has moved in gets ``tau = n_steps``."""
     n, nw, nd = chain.shape
     tau = np.empty(nd)
@@ -349,25 +363,20 @@ def run_ensemble(
         state = None
     n = sampler.iteration
     taus, checks = [], []
-    converged = False
     every = options.check_every
-    while n < options.max_steps:
+    converged = False
+    if resumed_at > 0 and n % every == 0:  # a finished run stays finished
+        converged, tau = _length_ok(sampler.get_chain(), options)
+    while n < options.max_steps and not converged:
         n_next = min((n // every + 1) * every, options.max_steps)
         sampler.run_mcmc(state, n_next - n, progress=False)
         state = None
         n = sampler.iteration
-        chain = sampler.get_chain()
-        tau = _tau(chain)
+        converged, tau = _length_ok(sampler.get_chain(), options)
         taus.append(tau)
         checks.append(n)
         if progress is not None:
             progress(ensemble_id, n, options.max_steps)
-        if n >= every * 2 and n >= options.min_steps:
-            prev = _tau(chain[: n - every]) if n % every == 0 else taus[-2]
-            stable = np.all(np.abs(prev - tau) / tau < options.tau_rtol)
-            if n >= options.tau_factor * np.max(tau) and stable:
-                converged = True
-                break
     chain = sampler.get_chain()
     lp = sampler.get_log_prob()
     tau = _tau(chain)
@@ -480,9 +489,11 @@ def sample_posterior(
     Parameters
     ----------
     problem : CalibrationProblem
-    center : (ndim,) starting point in natural units (least-squares estimate + nuisance estimates).
+    center : (ndim,) starting point in natural units (least-squares estimate + nuisance estimates),
+        or (n_ensembles, ndim): one centre per ensemble (e.g. distinct least-squares optima, so that
+        the between-ensemble R-hat can see separate modes).
     cov : (n_material, n_material) Laplace covariance for the initial scatter (None: small fixed
-    scatter).
+        scatter), or a list with one per ensemble.
     options : SamplerOptions
     checkpoint : directory for the HDF5 checkpoints, one file per ensemble (``ensemble_<k>.h5``;
     HDF5
@@ -501,7 +512,16 @@ def sample_posterior(
     nw = options.walkers(ndim)
     n_ens = options.n_ensembles
     seeds = [int(s) for s in rng.integers(2**32 - 1, size=n_ens)]
-    p0s = [initial_walkers(problem, center, nw, cov=cov, scatter=options.scatter, rng=rng) for _ in range(n_ens)]
+    centers = np.asarray(center, dtype=float)
+    centers = np.broadcast_to(centers, (n_ens, ndim)) if centers.ndim == 1 else centers
+    if centers.shape != (n_ens, ndim):
+        raise ValidationError("center", f"shape {np.shape(center)}", f"({ndim},) or ({n_ens}, {ndim})")
+    covs = list(cov) if isinstance(cov, list | tuple) else [cov] * n_ens
+    if len(covs) != n_ens:
+        raise ValidationError("cov", f"{len(covs)} matrices", f"one matrix or {n_ens} (one per ensemble)")
+    p0s = [
+        initial_walkers(problem, centers[k], nw, cov=covs[k], scatter=options.scatter, rng=rng) for k in range(n_ens)
+    ]
     paths = [None] * n_ens
     if checkpoint is not None:
         Path(checkpoint).mkdir(parents=True, exist_ok=True)

@@ -128,7 +128,14 @@ def plot_contraction(values: Mapping[str, np.ndarray], names: Sequence[str], *, 
     return ax.figure
 
 
-def plot_marginals_overlay(draws: Mapping[str, np.ndarray], names: Sequence[str], *, bins=40, xlabel="scaled box u"):
+def plot_marginals_overlay(
+    draws: Mapping[str, np.ndarray],
+    names: Sequence[str],
+    *,
+    bins=40,
+    xlabel="scaled box u",
+    title="Marginal posteriors in the scaled box (dotted: the prior)",
+):
     """Marginal histograms of several posteriors overlaid (one panel per parameter)."""
     fig, axes = _grid(len(names))
     for j, name in enumerate(names):
@@ -150,7 +157,7 @@ def plot_marginals_overlay(draws: Mapping[str, np.ndarray], names: Sequence[str]
         ax.tick_params(labelsize=7)
         ax.set_xlabel(xlabel, fontsize=7)
     axes[0].legend(fontsize=7)
-    fig.suptitle("Marginal posteriors in the scaled box (dotted: the prior)", fontsize=10)
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
 
@@ -201,26 +208,30 @@ def plot_cross_prediction(time_s, y_obs, band, median, *, title="", coverage=Non
 def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], *, ax=None, marks=None):
     """Gauss-Newton sd of log-parameters against the loading-rate factor (log-log), one line per parameter.
 
-    ``marks`` optionally maps a parameter to a bool per rate (profile says identifiable: filled
-    marker).
+    ``marks`` optionally maps a parameter to an int per rate: 1 profile closed on both sides (filled
+    marker), 0 profile open (empty marker), -1 not profiled (small dot).
     """
     if ax is None:
-        _, ax = plt.subplots(figsize=(6, 4))
+        _, ax = plt.subplots(figsize=(6.5, 4.4))
     f = np.asarray(rate_factors, float)
     for k, (name, se) in enumerate(se_log.items()):
         se = np.minimum(np.asarray(se, float), 1e3)
         ax.loglog(f, se, "-", color=f"C{k}", label=name)
-        ok = np.asarray(marks.get(name, np.zeros(f.size, bool))) if marks else np.zeros(f.size, bool)
-        ax.loglog(f[ok], se[ok], "o", color=f"C{k}")
-        ax.loglog(f[~ok], se[~ok], "o", mfc="none", color=f"C{k}")
+        m = np.asarray(marks.get(name, np.full(f.size, -1))) if marks else np.full(f.size, -1)
+        ax.loglog(f[m == 1], se[m == 1], "o", ms=7, color=f"C{k}")
+        ax.loglog(f[m == 0], se[m == 0], "o", ms=7, mfc="none", color=f"C{k}")
+        ax.loglog(f[m == -1], se[m == -1], ".", ms=4, color=f"C{k}")
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
     ax.axvline(1.0, color="grey", lw=0.8, ls=":")
     ax.set_xlabel("ramp rate / T2 rate (3.24 kPa/min)")
     ax.set_ylabel("sd of log-parameter (Gauss-Newton)")
     ax.set_title(
-        "Designed T2-like ramps, data simulated from the T1 posterior\nfilled: profile closed on both sides", fontsize=9
+        "Designed T2-like ramps, data simulated from the T1 posterior\n"
+        "profiled rates: filled = closed on both sides, empty = open",
+        fontsize=9,
     )
     ax.legend(fontsize=7)
+    ax.figure.tight_layout()
     return ax.figure
 
 

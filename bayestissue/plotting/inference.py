@@ -1,9 +1,9 @@
 """Figures of a calibration: corner plot, traces, posterior predictive bands, residuals, least-squares
-history (paper Figs. 9 and 11) and the multi-start waterfall. Every function returns its figure; none
-saves or shows.
+history (paper Figs. 9 and 11) and the multi-start waterfall. Every function returns its figure;
+none saves or shows.
 
-Parameters on a log-scaled box (moduli and rates) are shown as :math:`\\log_{10}` values: their posteriors
-span decades.
+Parameters on a log-scaled box (moduli and rates) are shown as :math:`\\log_{10}` values: their
+posteriors span decades.
 """
 
 from __future__ import annotations
@@ -39,8 +39,9 @@ def _display(problem, values, idx):
 def plot_corner(problem, draws, *, least_squares=None, references=None, max_points=20000):
     """Corner plot of the posterior draws ``(n, ndim)`` (natural units).
 
-    ``least_squares`` (LeastSquaresResult) is marked in blue; ``references`` maps a label (``paper``,
-    ``generating``) to full material vectors (the paper's order, all parameters), marked in red / green.
+    ``least_squares`` (LeastSquaresResult) is marked in blue; ``references`` maps a label
+    (``paper``, ``generating``) to full material vectors (the paper's order, all parameters), marked
+    in red / green.
     """
     import corner
     import matplotlib.pyplot as plt
@@ -76,9 +77,7 @@ def plot_corner(problem, draws, *, least_squares=None, references=None, max_poin
         shown, _ = _display(problem, full[None, :], idx)
         corner.overplot_lines(fig, shown[0], color=colors.get(label, "k"), ls="--", lw=1)
     handles = [plt.Line2D([], [], color="tab:blue", label="least squares")]
-    handles += [
-        plt.Line2D([], [], color=colors.get(k, "k"), ls="--", label=k) for k in (references or {})
-    ]
+    handles += [plt.Line2D([], [], color=colors.get(k, "k"), ls="--", label=k) for k in (references or {})]
     fig.legend(handles=handles, loc="upper right", fontsize=10, frameon=False)
     return fig
 
@@ -114,10 +113,11 @@ def plot_traces(sample, *, max_walkers: int = 8):
     return fig
 
 
-def plot_predictive(
-    time_s, observed, model_draws, *, least_squares_fit=None, noisy_draws=None, ax=None, title=None
-):
+def plot_predictive(time_s, observed, model_draws, *, least_squares_fit=None, noisy_draws=None, title=None):
     """Posterior predictive bands (50 % and 90 %) of the model curve over the data.
+
+    Two panels: the curves, and everything minus the posterior median curve (the bands are too narrow
+    to see at the scale of the curve).
 
     Parameters
     ----------
@@ -128,24 +128,27 @@ def plot_predictive(
     """
     import matplotlib.pyplot as plt
 
-    if ax is None:
-        _, ax = plt.subplots(figsize=(7, 4))
+    fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     q = np.quantile(model_draws, [0.05, 0.25, 0.5, 0.75, 0.95], axis=0)
-    ax.fill_between(time_s, q[0], q[4], color="tab:orange", alpha=0.3, lw=0, label="model 90 %")
-    ax.fill_between(time_s, q[1], q[3], color="tab:orange", alpha=0.6, lw=0, label="model 50 %")
-    if noisy_draws is not None:
-        qn = np.quantile(noisy_draws, [0.05, 0.95], axis=0)
-        ax.plot(time_s, qn[0], ":", color="tab:orange", lw=1, label="new data 90 %")
-        ax.plot(time_s, qn[1], ":", color="tab:orange", lw=1)
-    ax.plot(time_s, observed, ".", color="k", ms=2.5, label="data")
-    if least_squares_fit is not None:
-        ax.plot(time_s, least_squares_fit, "-", color="tab:blue", lw=1, label="least squares")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("displacement (mm)")
+    med = q[2]
+    for ax, ref in zip(axes, (0.0, med), strict=True):
+        ax.fill_between(time_s, q[0] - ref, q[4] - ref, color="tab:orange", alpha=0.3, lw=0, label="model 90 %")
+        ax.fill_between(time_s, q[1] - ref, q[3] - ref, color="tab:orange", alpha=0.7, lw=0, label="model 50 %")
+        if noisy_draws is not None:
+            qn = np.quantile(noisy_draws, [0.05, 0.95], axis=0)
+            ax.plot(time_s, qn[0] - ref, ":", color="tab:red", lw=1, label="new data 90 %")
+            ax.plot(time_s, qn[1] - ref, ":", color="tab:red", lw=1)
+        ax.plot(time_s, observed - ref, ".", color="k", ms=2.5, label="data")
+        if least_squares_fit is not None:
+            ax.plot(time_s, least_squares_fit - ref, "-", color="tab:blue", lw=1, label="least squares")
+    axes[0].set_ylabel("displacement (mm)")
+    axes[1].set_ylabel("minus posterior median (mm)")
+    axes[1].set_xlabel("time (s)")
     if title:
-        ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8, loc="lower right")
-    return ax.figure
+        axes[0].set_title(title, fontsize=10)
+    axes[0].legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    return fig
 
 
 def _acf(r, max_lag):
@@ -244,9 +247,7 @@ def calibration_figures(outcome) -> dict:
     if len(outcome.references) == 1:
         refs = next(iter(outcome.references.values()))
         refs = {k: v for k, v in refs.items() if k in ("paper", "generating")}
-    figs["corner"] = plot_corner(
-        problem, outcome.sample.flat(), least_squares=outcome.best, references=refs
-    )
+    figs["corner"] = plot_corner(problem, outcome.sample.flat(), least_squares=outcome.best, references=refs)
     figs["traces"] = plot_traces(outcome.sample)
     pp = outcome.idata.posterior_predictive
     for k, e in enumerate(problem.experiments):

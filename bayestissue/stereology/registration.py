@@ -35,6 +35,7 @@ __all__ = [
     "register_stack",
     "apply_transforms",
     "displacement_error_px",
+    "rigid_params",
 ]
 
 
@@ -156,6 +157,9 @@ def estimate_rigid(
     if smooth_px > 0:
         f, m = ndimage.gaussian_filter(f, smooth_px), ndimage.gaussian_filter(m, smooth_px)
     f, m = f - f.mean(), m - m.mean()
+    for name, img in (("fixed", f), ("moving", m)):
+        if not np.any(np.abs(img) > 1e-12):
+            raise ValidationError(name, "a blank (uniform) image", "an image with structure")
     H, W = f.shape
     centre = ((W - 1) / 2, (H - 1) / 2)
     mh, mw = max(1, H // 8), max(1, W // 8)
@@ -167,7 +171,7 @@ def estimate_rigid(
         trials.append(lp)
     scored = [_coarse(f, m, a, upsample_factor, centre, inner) for a in trials]
     best = max(range(len(scored)), key=lambda k: scored[k][0])
-    x0 = _params(scored[best][1], f.shape)
+    x0 = rigid_params(scored[best][1], f.shape)
 
     def cost(x):
         M = rigid_matrix(x[0], x[1], x[2], centre)
@@ -204,18 +208,22 @@ def register_stack(
     *,
     max_rotation_deg: float = 6.0,
     upsample_factor: int = 20,
+    n_template: int = 3,
     progress: Callable[[int], None] | None = None,
 ) -> RegisteredStack:
     r"""Register a stack of serial sections to its first section.
 
-    Consecutive pairs are registered (neighbours share the most structure) and composed,
-    :math:`T_i = A_{i-1,i} T_{i-1}`, :math:`T_0 = I`. The valid field is where every section has
-    data.
+    Section *i* is registered to a template, the mean of the previous ``n_template`` sections
+    already brought into the reference frame, which gives :math:`T_i` directly. Averaging
+    neighbours keeps the common structure and damps the section-to-section changes that make a
+    chain of single pairs (``n_template = 1``: :math:`T_i = A_{i-1,i} T_{i-1}`) drift like a
+    random walk. The valid field is where every section has data.
 
     Parameters
     ----------
     images : (n, H, W, 3) RGB or (n, H, W) grayscale stack, all sections the same size.
-    progress : optional callable called with 1 after each pair (e.g. ``tqdm.update``).
+    n_template : number of previous registered sections averaged into the template.
+    progress : optional callable called with 1 after each section (e.g. ``tqdm.update``).
 
     Returns
     -------
@@ -224,15 +232,28 @@ def register_stack(
     images = np.asarray(images)
     if images.ndim not in (3, 4) or images.shape[0] < 1:
         raise ValidationError("images", f"shape {images.shape}", "a stack (n, H, W) or (n, H, W, 3)")
+    if int(n_template) != n_template or n_template < 1:
+        raise ValidationError("n_template", n_template, "a positive integer")
     n = images.shape[0]
     gray = [_gray(img) for img in images]
     T = np.empty((n, 3, 3))
     T[0] = np.eye(3)
+    registered = [gray[0]]
     pairwise = np.empty((max(n - 1, 0), 3))
     for i in range(1, n):
-        A = estimate_rigid(gray[i - 1], gray[i], max_rotation_deg=max_rotation_deg, upsample_factor=upsample_factor)
-        pairwise[i - 1] = _params(A, gray[i].shape)
-        T[i] = A @ T[i - 1]
+        if n_template == 1:
+            A = estimate_rigid(
+                gray[i - 1],
+                gray[i],
+                max_rotation_deg=max_rotation_deg,
+                upsample_factor=upsample_factor,
+            )
+            T[i] = A @ T[i - 1]
+        else:
+            template = np.mean(registered[-int(n_template) :], axis=0)
+            T[i] = estimate_rigid(template, gray[i], max_rotation_deg=max_rotation_deg, upsample_factor=upsample_factor)
+            registered.append(warp(gray[i], EuclideanTransform(matrix=T[i]), order=1, mode="edge"))
+        pairwise[i - 1] = rigid_params(T[i] @ np.linalg.inv(T[i - 1]), gray[i].shape)
         if progress is not None:
             progress(1)
     H, W = images.shape[1:3]
@@ -246,7 +267,7 @@ def register_stack(
     return RegisteredStack(images=reg, transforms=T, pairwise=pairwise, valid=valid.reshape(H, W))
 
 
-def _params(A: np.ndarray, shape) -> np.ndarray:
+def rigid_params(A: np.ndarray, shape) -> np.ndarray:
     """(angle_deg, tx, ty) of a rigid matrix about the centre of an image of ``shape``."""
     H, W = shape[:2]
     c = np.array([(W - 1) / 2, (H - 1) / 2])

@@ -132,8 +132,7 @@ class RenderedStack:
                 {"angle_deg": float(a), "tx_px": float(x), "ty_px": float(y)} for a, x, y in t
             ],
             "consecutive_misregistration": [
-                {"angle_deg": float(a), "tx_px": float(x), "ty_px": float(y)}
-                for a, x, y in np.diff(t, axis=0)
+                {"angle_deg": float(a), "tx_px": float(x), "ty_px": float(y)} for a, x, y in np.diff(t, axis=0)
             ],
             "stain_factors_red_blue": self.stain_factors.round(5).tolist(),
         }
@@ -222,9 +221,7 @@ def render_sections(
     max_rot = 2.5 * st.rotation_sd_deg
     if margin_px is None:
         half_diag = 0.5 * np.hypot(A, B)
-        margin_px = int(
-            np.ceil(max_shift * np.sqrt(2) + half_diag * 2 * np.sin(np.deg2rad(max_rot) / 2))
-        )
+        margin_px = int(np.ceil(max_shift * np.sqrt(2) + half_diag * 2 * np.sin(np.deg2rad(max_rot) / 2)))
         margin_px += 1
     margin_px = int(margin_px)
     H, W = A - 2 * margin_px, B - 2 * margin_px

@@ -146,12 +146,15 @@ def _features(images, method, stains, scale=None):
         od = optical_density(images)
         norm = np.linalg.norm(od, axis=-1)
         c = np.clip(od @ np.linalg.pinv(stains), 0, None)
-        if scale is None:
-            dominant = c[..., 0] > c[..., 1]
+        if scale is None:  # typical pure-stain amounts, from clearly stained pixels
+            tissue = norm > threshold_otsu(norm) if np.ptp(norm) > 0 else norm > 0
+            red = tissue & (c[..., 0] > c[..., 1])
+            blue = tissue & (c[..., 0] <= c[..., 1])
             scale = np.array(
-                [np.median(c[..., 0][dominant]) if dominant.any() else 1.0,
-                 np.median(c[..., 1][~dominant]) if (~dominant).any() else 1.0]
+                [np.median(c[..., 0][red]) if red.any() else 1.0,
+                 np.median(c[..., 1][blue]) if blue.any() else 1.0]
             )  # fmt: skip
+            scale = np.where(scale > 0, scale, 1.0)
         c = c / scale
         share = c[..., 0] / np.maximum(c[..., 0] + c[..., 1], 1e-9)
         return norm, share, scale
@@ -212,6 +215,8 @@ def segment_stack(
     sel = np.ones(f_t.shape, dtype=bool)
     if valid is not None:
         sel = np.broadcast_to(np.asarray(valid, dtype=bool), f_t.shape)
+        if not sel.any():
+            raise ValidationError("valid", "an empty field", "a field with at least one pixel")
     if thresholds is None:
         t_t = float(threshold_otsu(f_t[sel]))
         tissue_sel = sel & (f_t > t_t)

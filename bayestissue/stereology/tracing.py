@@ -1,20 +1,37 @@
-r"""Tracing smooth muscle cells through a registered stack: 3-D labels, split, principal axes.
+r"""Tracing smooth muscle cells through a registered stack: link, split, principal axes.
 
 1. The SMC mask of the registered stack is a 3-D image with anisotropic voxels
    ``spacing_um = (section thickness, pixel, pixel)``.
-2. Touching cells are split by a watershed of the negated Euclidean distance transform (computed
-   with the anisotropic spacing) from its h-maxima (Soille 2003, Morphological Image Analysis,
-   Ch. 6 and 9): one marker per locally thickest part of a cell. Every watershed region is one
-   traced cell (one ``cell_id``).
-3. A traced cell is approximated by straight pieces: a region longer than ``piece_length_um`` (or
-   branched, where cells crossing in one section merged) is cut by k-means on its voxel
-   coordinates into about ``extent / piece_length_um`` pieces. Each piece becomes a segment
-   through its centroid :math:`\bar{\mathbf x}` along its principal axis :math:`\mathbf e_1` (top
-   eigenvector of the voxel covariance), spanning the extent of the voxel centres along
-   :math:`\mathbf e_1` plus one voxel projected on it,
+2. Cells are separated in one of two ways.
+
+   ``"profiles"`` (default): the 2-D profiles of every section are linked to those of the next
+   section when they overlap (after growing by ``link_reach_um``), are each other's best match
+   and, when both are elongated, have in-plane axes within ``max_angle_deg`` (the paper's manual
+   tracing followed the centres of gravity of each cell from micrograph to micrograph, Section
+   2.5.3). Profiles of different cells stacked in neighbouring sections are not merged as they
+   would be by 3-D connectivity when the section thickness is close to the cell diameter.
+
+   ``"watershed"``: 3-D watershed of the negated Euclidean distance transform (anisotropic
+   spacing) from its h-maxima (Soille 2003, Morphological Image Analysis, Ch. 6 and 9), which
+   splits touching cells at their necks.
+
+   Each linked group / watershed region is one traced cell (one ``cell_id``).
+3. A traced cell is approximated by straight pieces: a region longer than ``piece_length_um`` is
+   cut by k-means on its voxel coordinates into about ``extent / piece_length_um`` pieces. Each
+   piece becomes a segment through its centroid :math:`\bar{\mathbf x}` along its principal
+   axis :math:`\mathbf e_1` (top eigenvector of the voxel covariance), spanning the extent of
+   the voxel centres along :math:`\mathbf e_1` plus one voxel projected on it,
 
    .. math:: \ell = \max_v \mathbf e_1\cdot\mathbf x_v - \min_v \mathbf e_1\cdot\mathbf x_v
              + \sum_k |e_{1k}|\, s_k .
+
+4. Merged cells (``length_from_volume``): a region that is not line-like (linearity
+   :math:`\sqrt{\lambda_2/\lambda_1} \ge` ``max_linearity``: crossing or side-by-side cells that
+   could not be separated) gets the length its volume implies,
+   :math:`L = V / \bar A`, with :math:`\bar A` the median volume / length of the line-like regions
+   of the same stack (the mean cross-section of one cell, measured; needs >= 5 such regions). Its
+   pieces (about :math:`L / ` ``piece_length_um`` of them, by k-means) keep their own directions
+   and are scaled about their midpoints to add up to :math:`L`.
 
 The pieces form the line system of the paper (Section 2.5.2: lines through the centres of gravity
 of the cells), from which :math:`L_V = \sum \ell / V` (eq. 2) and the rose of directions follow.
@@ -28,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 from scipy.cluster.vq import kmeans2
-from skimage.morphology import h_maxima, skeletonize
+from skimage.morphology import h_maxima
 from skimage.segmentation import watershed
 
 from bayestissue._validation import ValidationError, check_positive
@@ -112,21 +129,32 @@ def _profile_stats(lab2d: np.ndarray, n: int):
     return area, theta, np.sqrt(l1 / l2)
 
 
-def _link_profiles(mask: np.ndarray, min_overlap: float, max_angle_deg: float, elongated: float):
+def _link_profiles(
+    mask: np.ndarray,
+    min_overlap: float,
+    max_angle_deg: float,
+    elongated: float,
+    reach_px: int,
+):
     """Label 2-D profiles per section and link them across sections into 3-D cells.
 
     Profiles a (section i) and b (section i + 1) are linked when they are each other's best
-    partner by overlap / smaller area, that ratio is at least ``min_overlap``, and, if both are
+    partner by overlap / smaller area (both dilated by ``reach_px``: thin cell ends and oblique
+    cells shift between sections), that ratio is at least ``min_overlap``, and, if both are
     elongated (axis ratio > ``elongated``), their in-plane axes differ by less than
     ``max_angle_deg``. Linked profiles form one cell (union-find).
     """
     n_sec = mask.shape[0]
-    labs, offsets, stats = [], [0], []
+    labs, grown, offsets, stats = [], [], [0], []
+    disk = ndimage.iterate_structure(ndimage.generate_binary_structure(2, 1), max(reach_px, 1))
     for i in range(n_sec):
         lab, n = ndimage.label(mask[i])
         labs.append(lab)
         stats.append(_profile_stats(lab, n))
         offsets.append(offsets[-1] + n)
+        if reach_px > 0:  # grey dilation grows every profile (ties go to the larger label)
+            lab = ndimage.grey_dilation(lab, footprint=disk)
+        grown.append(lab)
     parent = np.arange(offsets[-1] + 1)
 
     def find(x):
@@ -137,13 +165,15 @@ def _link_profiles(mask: np.ndarray, min_overlap: float, max_angle_deg: float, e
 
     max_angle = np.deg2rad(max_angle_deg)
     for i in range(n_sec - 1):
-        a, b = labs[i], labs[i + 1]
+        a, b = grown[i], grown[i + 1]
         both = (a > 0) & (b > 0)
         if not both.any():
             continue
         pairs, counts = np.unique(np.stack([a[both], b[both]]), axis=1, return_counts=True)
         area_a, th_a, el_a = stats[i]
         area_b, th_b, el_b = stats[i + 1]
+        area_a = np.bincount(a.ravel(), minlength=len(area_a) + 1)[1:].astype(float)
+        area_b = np.bincount(b.ravel(), minlength=len(area_b) + 1)[1:].astype(float)
         score = counts / np.minimum(area_a[pairs[0] - 1], area_b[pairs[1] - 1])
         dth = np.abs(th_a[pairs[0] - 1] - th_b[pairs[1] - 1]) % np.pi
         dth = np.minimum(dth, np.pi - dth)
@@ -168,11 +198,12 @@ def _link_profiles(mask: np.ndarray, min_overlap: float, max_angle_deg: float, e
     return out
 
 
-def _pieces(pts: np.ndarray, dxyz, piece_length_um: float, rng) -> list[np.ndarray]:
-    """Cut a voxel cloud into straight pieces of at most about ``piece_length_um`` (k-means)."""
+def _pieces(pts: np.ndarray, dxyz, piece_length_um: float, rng, k: int | None = None):
+    """Cut a voxel cloud into ``k`` straight pieces (default: about ``piece_length_um`` long)."""
     seg = fit_segment(pts, dxyz)
     length = float(np.linalg.norm(seg[1] - seg[0]))
-    k = int(np.ceil(length / piece_length_um))
+    if k is None:
+        k = int(np.ceil(length / piece_length_um))
     if k <= 1 or len(pts) < 4 * k:
         return [seg]
     t = (pts - pts.mean(axis=0)) @ (seg[1] - seg[0]) / length
@@ -182,45 +213,12 @@ def _pieces(pts: np.ndarray, dxyz, piece_length_um: float, rng) -> list[np.ndarr
     return [fit_segment(pts[part == j], dxyz) for j in range(k) if (part == j).sum() >= 2]
 
 
-def _cell_lines(cell: np.ndarray, sl, dxyz, piece_length_um: float, rng) -> list[np.ndarray]:
-    """Line(s) of one traced cell: the chain of its profile centroids or its longest skeleton.
-
-    (a) the polyline through the centres of gravity of the cell's profiles in consecutive
-    sections (the paper's tracing, Section 2.5.3); (b) the 2-D skeleton of its profile with the
-    longest skeleton, cut into straight pieces (a cell lying in the section plane shows in one or
-    two sections only, where (a) is too short). The longer of the two is the cell's line.
-    """
-    secs = np.flatnonzero(cell.any(axis=(1, 2)))
-    cents = []
-    best_skel: list[np.ndarray] = []
-    best_len = 0.0
-    for i in secs:
-        yy, xx = np.nonzero(cell[i])
-        z = (i + sl[0].start + 0.5) * dxyz[2]
-        x = (xx + sl[2].start + 0.5) * dxyz[0]
-        y = (yy + sl[1].start + 0.5) * dxyz[1]
-        cents.append([x.mean(), y.mean(), z])
-        sk_y, sk_x = np.nonzero(skeletonize(cell[i]))
-        if sk_x.size >= 2:
-            sk = np.column_stack(
-                [
-                    (sk_x + sl[2].start + 0.5) * dxyz[0],
-                    (sk_y + sl[1].start + 0.5) * dxyz[1],
-                    np.full(sk_x.size, z),
-                ]
-            )
-            pieces = _pieces(sk, (dxyz[0], dxyz[1], 0.0), piece_length_um, rng)
-            total = sum(float(np.linalg.norm(p[1] - p[0])) for p in pieces)
-            if total > best_len:
-                best_len, best_skel = total, pieces
-    cents = np.array(cents)
-    chain = [np.array([cents[j], cents[j + 1]]) for j in range(len(cents) - 1)]
-    chain_len = sum(float(np.linalg.norm(c[1] - c[0])) for c in chain)
-    if chain_len >= best_len and chain:
-        return chain
-    if best_skel:
-        return best_skel
-    return [np.array([cents[0], cents[0]])]
+def _linearity(pts: np.ndarray) -> float:
+    """sqrt(lambda_2 / lambda_1) of the point covariance: 0 for a line, 1 for a disc or ball."""
+    if len(pts) < 3:
+        return 0.0
+    w = np.linalg.eigvalsh(np.cov(pts.T))
+    return float(np.sqrt(max(w[1], 0.0) / max(w[2], 1e-12)))
 
 
 def trace_cells(
@@ -229,9 +227,12 @@ def trace_cells(
     spacing_um,
     valid=None,
     method: str = "profiles",
-    min_overlap: float = 0.3,
+    min_overlap: float = 0.2,
     max_angle_deg: float = 25.0,
     elongated: float = 2.0,
+    link_reach_um: float = 2.0,
+    length_from_volume: bool = True,
+    max_linearity: float = 0.4,
     h_um: float = 0.75,
     min_volume_um3: float = 40.0,
     piece_length_um: float = 15.0,
@@ -247,7 +248,11 @@ def trace_cells(
     h_um : dynamic of the h-maxima markers in um: distance maxima less than ``h_um`` above their
         surroundings do not start a cell (suppresses over-splitting along a cell).
     min_volume_um3 : smaller regions are dropped (noise, cell tips cut by the field edge).
-    piece_length_um : longest straight piece; longer or branched regions are cut (module docstring).
+    piece_length_um : longest straight piece; longer or branched regions are cut (module
+        docstring). Short pieces follow branched (merged) regions and keep more length; pieces
+        shorter than about 3 section thicknesses lose the elevation of oblique cells.
+    length_from_volume, max_linearity : length of merged (non line-like) regions from their
+        volume (module docstring, step 4); False keeps the extent of their k-means pieces.
     rng : seed or Generator for the k-means cuts.
 
     Returns
@@ -278,7 +283,8 @@ def trace_cells(
     volume = area * mask.shape[0] * sp[0]
 
     if method == "profiles":
-        labels = _link_profiles(mask, min_overlap, max_angle_deg, elongated)
+        reach = int(round(link_reach_um / sp[1]))
+        labels = _link_profiles(mask, min_overlap, max_angle_deg, elongated, reach)
     elif method == "watershed":
         dist = ndimage.distance_transform_edt(mask, sampling=sp)
         markers, _ = ndimage.label(h_maxima(dist, h_um))
@@ -291,6 +297,7 @@ def trace_cells(
     segments, ids = [], []
     objects = ndimage.find_objects(labels)
     keep = np.zeros(len(objects) + 1, dtype=bool)
+    regions = []
     for lab_id, sl in enumerate(objects, start=1):
         if sl is None:
             continue
@@ -305,10 +312,22 @@ def trace_cells(
                 (zz + sl[0].start + 0.5) * dxyz[2],
             ]
         )
-        if method == "watershed":
+        seg = fit_segment(pts, dxyz)
+        regions.append((lab_id, pts, float(np.linalg.norm(seg[1] - seg[0])), _linearity(pts)))
+    # cross-section of a single cell, measured on the simple (line-like) regions
+    vox_um3 = float(np.prod(sp))
+    simple = [len(p) * vox_um3 / L for _, p, L, lin in regions if lin < max_linearity and L > 0]
+    area = float(np.median(simple)) if length_from_volume and len(simple) >= 5 else None
+    for lab_id, pts, L, lin in regions:
+        if area is None or lin < max_linearity:
             pieces = _pieces(pts, dxyz, piece_length_um, rng)
-        else:
-            pieces = _cell_lines(labels[sl] == lab_id, sl, dxyz, piece_length_um, rng)
+        else:  # merged cells: length = volume / cross-section, spread over the pieces
+            L_est = max(len(pts) * vox_um3 / area, L)
+            k = max(int(np.ceil(L / piece_length_um)), int(round(L_est / piece_length_um)))
+            pieces = _pieces(pts, dxyz, piece_length_um, rng, k)
+            scale = L_est / sum(float(np.linalg.norm(q[1] - q[0])) for q in pieces)
+            mids = [q.mean(axis=0) for q in pieces]
+            pieces = [m + scale * (q - m) for q, m in zip(pieces, mids, strict=True)]
         segments.extend(pieces)
         ids.extend([lab_id] * len(pieces))
     labels[~keep[labels]] = 0

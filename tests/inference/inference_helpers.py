@@ -1,6 +1,7 @@
 """Helpers of the inference tests: small problems with known answers (imported by the tests)."""
 
 import numpy as np
+
 from bayestissue.inference import (
     CalibrationProblem,
     ExperimentTerm,

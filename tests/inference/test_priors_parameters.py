@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from inference_helpers import PRIOR_SPECS, prior_only_problem
 from scipy import integrate, stats
 
 from bayestissue.inference import (
@@ -15,14 +16,11 @@ from bayestissue.inference import (
     run_ensemble,
 )
 from bayestissue.inference.priors import make_prior
-from inference_helpers import PRIOR_SPECS, prior_only_problem
 
 
 @pytest.mark.parametrize("prior", [UniformPrior(0.1, 0.95), LogUniformPrior(1e-3, 1e3)])
 def test_prior_density_normalised_and_cdf_inverts_ppf(prior):
-    total, _ = integrate.quad(
-        lambda x: np.exp(prior.logpdf(x)), prior.lower, prior.upper, limit=200, points=[1e-2, 1]
-    )
+    total, _ = integrate.quad(lambda x: np.exp(prior.logpdf(x)), prior.lower, prior.upper, limit=200, points=[1e-2, 1])
     assert total == pytest.approx(1.0, rel=1e-6)
     q = np.linspace(0.01, 0.99, 7)
     np.testing.assert_allclose(prior.cdf(prior.ppf(q)), q, rtol=1e-12)
@@ -57,13 +55,11 @@ def test_transform_round_trip_and_log_jacobian_matches_finite_differences():
 
 
 def _prior_draws(problem, rng, n_steps=2500):
-    opts = SamplerOptions(
-        n_walkers=32, max_steps=n_steps, check_every=n_steps, prune_rounds=0, tau_factor=1e9
-    )
+    opts = SamplerOptions(n_walkers=32, max_steps=n_steps, check_every=n_steps, prune_rounds=0, tau_factor=1e9)
     p0 = initial_walkers(problem, problem.parameters.initial, 32, rng=rng)
     res = run_ensemble(problem, p0, options=opts, seed=int(rng.integers(2**31)))
     z, _ = res.kept()
-    step = max(1, int(np.ceil(np.max(res.tau) / res.store_thin)))
+    step = max(1, int(np.ceil(3 * np.max(res.tau) / res.store_thin)))  # ~independent draws
     z = z[::step].reshape(-1, problem.ndim)
     return problem.parameters.from_unconstrained(z)
 
@@ -72,7 +68,7 @@ def test_prior_marginals_through_the_sampler_pass_ks():
     """Draw from the prior through the sampler's own path (z-space target with log-Jacobian)."""
     problem = prior_only_problem(PRIOR_SPECS)
     x = _prior_draws(problem, np.random.default_rng(11))
-    assert x.shape[0] > 1000
+    assert x.shape[0] > 800
     for j, spec in enumerate(PRIOR_SPECS):
         p = stats.kstest(x[:, j], spec.prior_dist.cdf).pvalue
         assert p > 1e-3, (spec.name, p)
@@ -81,10 +77,15 @@ def test_prior_marginals_through_the_sampler_pass_ks():
 def test_ks_catches_the_classic_jacobian_mistake(monkeypatch):
     """Negative control: without the log-Jacobian the sampler targets the wrong prior."""
     problem = prior_only_problem(PRIOR_SPECS[2:3])  # uniform prior on a log-scaled box
-    monkeypatch.setattr(
-        ParameterSet, "log_abs_det_jacobian", lambda self, z: np.zeros(np.shape(z)[:-1])
-    )
-    x = _prior_draws(problem, np.random.default_rng(12), n_steps=1000)
+    monkeypatch.setattr(ParameterSet, "log_abs_det_jacobian", lambda self, z: np.zeros(np.shape(z)[:-1]))
+    # Without any Jacobian the target in z is improper (flat tails): the walkers drift to infinity,
+    # which emcee reports, or, if they have not got there yet, the KS test rejects.
+    with np.errstate(all="ignore"):
+        try:
+            x = _prior_draws(problem, np.random.default_rng(12), n_steps=1000)
+        except ValueError as exc:
+            assert "infinite" in str(exc)
+            return
     assert stats.kstest(x[:, 0], PRIOR_SPECS[2].prior_dist.cdf).pvalue < 1e-6
 
 

@@ -1,0 +1,86 @@
+"""Sampling benchmark: time and ESS per second for the T1 posterior to meet the convergence verdict.
+
+Prints (no pass/fail): the cost of one forward solve and of one log-posterior evaluation per
+parameter set (the sampler's overhead ratio), then runs the calibration sampler on T1 (4 independent
+ensembles in parallel processes, automatic length up to a step cap) and prints wall time, steps,
+tau, min bulk/tail ESS, ESS per second, max R-hat and the verdict (R-hat < 1.01, ESS >= 400, length
+>= 50 tau).
+
+    python benchmarks/bench_sampling.py [--walkers 26] [--max-steps 6000] [--moves de_snooker]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from bayestissue.inference import SamplerOptions, fit_least_squares, sample_posterior  # noqa: E402
+from bayestissue.inference.calibration import CalibrationConfig, build_problem  # noqa: E402
+from bayestissue.inference.diagnostics import assess_convergence  # noqa: E402
+from bayestissue.mechanics import PAPER_PARAMETERS, load_experiment, simulate  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--experiment", default="T1")
+    ap.add_argument("--walkers", type=int, default=26, help="walkers per ensemble (26 = 2 ndim + 2)")
+    ap.add_argument("--max-steps", type=int, default=6000)
+    ap.add_argument("--moves", default="de_snooker")
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args(argv)
+    exp = load_experiment(ROOT / "data" / f"{args.experiment}.toml")
+    problem = build_problem([exp], CalibrationConfig())
+    p = np.tile(PAPER_PARAMETERS[args.experiment], (args.walkers // 2, 1))
+    simulate(exp, p)  # compile
+    reps = 20
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        simulate(exp, p)
+    t_fwd = (time.perf_counter() - t0) / (reps * p.shape[0])
+    theta = np.column_stack([p, np.full(p.shape[0], 0.02)])
+    z = problem.parameters.to_unconstrained(theta)
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        problem.log_posterior_unconstrained(z)
+    t_lp = (time.perf_counter() - t0) / (reps * p.shape[0])
+    print(f"forward solve: {t_fwd * 1e3:.3f} ms per set; log-posterior: {t_lp * 1e3:.3f} ms per set")
+    print(f"overhead of the inference layer: {t_lp / t_fwd:.2f} x the forward solve")
+    t0 = time.perf_counter()
+    ls = fit_least_squares(problem, space="unit", max_nfev=400)
+    t_ls = time.perf_counter() - t0
+    print(f"least squares (unit space): cost {ls.cost:.5g}, {ls.nit} iterations, {t_ls:.1f} s")
+    opts = SamplerOptions(n_walkers=args.walkers, moves=args.moves, max_steps=args.max_steps, check_every=100)
+    sample = sample_posterior(
+        problem,
+        problem.nuisance_estimate(ls.x),
+        cov=ls.cov,
+        options=opts,
+        rng=args.seed,
+    )
+    rep = assess_convergence(sample)
+    n_eval = sample.n_evaluations
+    print(
+        f"sampling: {rep.time_s:.1f} s wall, {n_eval} log-posterior evaluations "
+        f"({rep.time_s / max(n_eval, 1) * 1e3:.3f} ms each incl. 2 processes), "
+        f"steps per ensemble {rep.n_steps.tolist()}"
+    )
+    print(f"max tau per ensemble (steps): {np.round(rep.tau.max(axis=1), 1).tolist()}")
+    print(
+        f"min bulk ESS {rep.ess_bulk.min():.0f}, min tail ESS {rep.ess_tail.min():.0f}, "
+        f"ESS/s {rep.ess_per_second():.3f}, max R-hat {rep.rhat.max():.4f}, "
+        f"median acceptance {np.median(rep.acceptance):.3f}"
+    )
+    print(rep.verdict())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,170 @@
+"""Bayesian calibration of the paper's 11 parameters on the T1 and T2 replicas (issue 3).
+
+For each experiment: the paper's least squares from its initial guess, multi-start least squares,
+emcee ensembles, diagnostics; writes into figures/:
+
+* ``calibration_<T>_{corner,traces,predictive_<T>,residuals_<T>,ls_history,waterfall}.png``
+* ``calibration_summary_<T>.md`` / ``.csv`` (paper value, generating value, least squares + Wald,
+  posterior summaries, ESS, R-hat, flags)
+* ``calibration_<T>_posterior.nc`` (arviz InferenceData with provenance; checkpoints in runs/,
+  ignored by git)
+* ``calibration_recovery.md``: do the 90 % intervals contain the generating values? which parameters
+  are not informed (contraction < 0.3)?
+
+    python studies/calibrate.py [--quick | --full] [--only T1 T2]
+
+``--quick`` is a CI smoke run (short, unconverged chains); the default (about 8 minutes for both
+experiments on 2 cores) uses 2 ndim + 2 walkers and a step cap, and says plainly whether the
+convergence verdict was met; ``--full`` uses the library defaults (4 ndim walkers, 20 000 steps).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from bayestissue.inference.calibration import config_from_mapping, run_calibration  # noqa: E402
+from bayestissue.inference.summary import table_markdown  # noqa: E402
+from bayestissue.io.results import provenance, write_inference_data  # noqa: E402
+from bayestissue.io.tables import write_table  # noqa: E402
+from bayestissue.mechanics import load_experiment  # noqa: E402
+from bayestissue.plotting.inference import calibration_figures  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SEED = 20261121
+
+MODES = {
+    "quick": {
+        "n_starts": 1,
+        "ls_max_nfev": 100,
+        "sampler": {
+            "n_walkers": 26,
+            "n_ensembles": 2,
+            "max_steps": 100,
+            "check_every": 50,
+            "prune_rounds": 1,
+            "prune_steps": 20,
+        },
+        "n_predictive": 100,
+        "max_draws": 1000,
+    },
+    "default": {
+        "n_starts": 6,
+        "ls_max_nfev": 400,
+        "sampler": {"n_walkers": 26, "max_steps": 4000, "check_every": 100},
+    },
+    "full": {"n_starts": 16, "ls_max_nfev": 2000, "sampler": {"max_steps": 20000}},
+}
+
+
+def _recovery_lines(name, outcome) -> list[str]:
+    cols = outcome.table["columns"]
+    if "generating" not in cols or "q05" not in cols:
+        return []
+    lines = []
+    for i, p in enumerate(cols["parameter"]):
+        g = cols["generating"][i]
+        inside = cols["q05"][i] <= g <= cols["q95"][i]
+        informed = cols["contraction"][i] >= 0.3
+        lines.append(
+            f"| {name} | {p} | {g:.4g} | {cols['q05'][i]:.4g} - {cols['q95'][i]:.4g} | "
+            f"{'yes' if inside else 'NO'} | {cols['contraction'][i]:.2f} | "
+            f"{'informed' if informed else 'prior-dominated'} |"
+        )
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true", help="CI smoke run (seconds, not converged)")
+    mode.add_argument("--full", action="store_true", help="library defaults, long chains")
+    ap.add_argument("--only", nargs="+", default=["T1", "T2"], help="experiments (default T1 T2)")
+    ap.add_argument("--data", type=Path, default=ROOT / "data")
+    ap.add_argument("--out", type=Path, default=ROOT / "figures")
+    ap.add_argument("--runs", type=Path, default=ROOT / "runs" / "calibration")
+    args = ap.parse_args(argv)
+    key = "quick" if args.quick else "full" if args.full else "default"
+    t_all = time.perf_counter()
+    args.out.mkdir(parents=True, exist_ok=True)
+    recovery = [
+        "| experiment | parameter | generating | posterior 90 % | inside | contraction | data |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    verdicts = []
+    for name in args.only:
+        t0 = time.perf_counter()
+        path = args.data / f"{name}.toml"
+        exp = load_experiment(path)
+        config = config_from_mapping(None, seed=SEED, **MODES[key])
+        prov = provenance(seed=SEED, data_paths=[path, path.with_suffix(".csv")])
+        prov["study"] = f"studies/calibrate.py --{key}"
+        run_dir = args.runs / name
+        if run_dir.exists():
+            shutil.rmtree(run_dir)
+        outcome = run_calibration([exp], config, out_dir=run_dir, provenance=prov)
+        md = table_markdown(outcome.table, title=f"Calibration on {name} ({key} setting)")
+        (args.out / f"calibration_summary_{name}.md").write_text(md)
+        write_table(
+            args.out / f"calibration_summary_{name}.csv",
+            outcome.table["columns"],
+            meta=outcome.table["meta"],
+        )
+        if outcome.idata is not None:
+            write_inference_data(outcome.idata, args.out / f"calibration_{name}_posterior.nc")
+        for fig_name, fig in calibration_figures(outcome).items():
+            fig.savefig(args.out / f"calibration_{name}_{fig_name}.png", dpi=100)
+            plt.close(fig)
+        pf, best = outcome.paper_fit, outcome.best
+        print(md)
+        print(
+            f"{name}: paper's least squares cost {pf.cost:.5g} ({pf.nit} iterations, {pf.time_s:.1f} s,"
+            f" active bounds: {', '.join(pf.active_names()) or 'none'}); best multi-start cost "
+            f"{best.cost:.5g}; cost at the generating values "
+            f"{_generating_cost(outcome, name):.5g}"
+        )
+        if outcome.report is not None:
+            rep = outcome.report
+            verdicts.append(f"{name}: {rep.verdict()}")
+            print(
+                f"{name}: sampling {rep.time_s:.1f} s, min bulk ESS {rep.ess_bulk.min():.0f}, "
+                f"{rep.ess_per_second():.2f} ESS/s, max R-hat {rep.rhat.max():.3f}, "
+                f"failed solves {outcome.sample.n_failed}/{outcome.sample.n_evaluations}"
+            )
+        recovery += _recovery_lines(name, outcome)
+        print(f"{name}: done in {time.perf_counter() - t0:.1f} s")
+    text = (
+        "# Calibration: recovery of the generating values (synthetic replicas)\n\n"
+        f"Setting: {key}. Convergence verdicts:\n\n"
+        + "\n".join(f"- {v}" for v in verdicts)
+        + "\n\n"
+        + "\n".join(recovery)
+        + "\n"
+    )
+    (args.out / "calibration_recovery.md").write_text(text)
+    print(text)
+    print(f"calibrate: done in {time.perf_counter() - t_all:.1f} s")
+    return 0
+
+
+def _generating_cost(outcome, name) -> float:
+    refs = outcome.references.get(name, {})
+    if "generating" not in refs:
+        return float("nan")
+    problem = outcome.problem
+    mat = problem.material
+    full = np.asarray(refs["generating"], dtype=float)
+    theta = np.array([full[mat.names.index(n)] for n in mat.sampled_names])
+    return 0.5 * float(np.sum(problem.residuals(theta[None, :]) ** 2))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,90 @@
+"""`bayestissue fit`: a small end-to-end run, its outputs, and clear errors (exit 2) on bad input."""
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayestissue.cli import main
+from bayestissue.io.results import read_inference_data
+from bayestissue.io.tables import read_table
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
+def _config(tmp_path, text):
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text(text)
+    return str(cfg)
+
+
+def test_fit_two_parameters_writes_results(tmp_path, capsys):
+    cfg = _config(
+        tmp_path,
+        '[parameters]\nsampled = ["mu", "kappa"]\n[sampler]\nseed = 5\nn_ensembles = 2\n',
+    )
+    out = tmp_path / "out"
+    code = main(
+        ["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(out), "--quick"]
+        + ["--no-figures", "--no-progress"]
+    )
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "paper's least squares" in text and "CONVERGED" in text  # NOT CONVERGED in a smoke run
+    cols, meta = read_table(out / "summary.csv", required=("parameter", "ls_estimate", "median"))
+    assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
+    assert "ginf1=125" in meta["parameters_fixed"]
+    idata = read_inference_data(out / "posterior.nc")
+    assert idata.posterior.attrs["seed"] == 5
+    assert "data_sha256:T2.csv" in idata.posterior.attrs
+    assert (out / "checkpoints" / "ensemble_0.h5").is_file()
+    assert np.all(np.isfinite(idata.posterior["mu"].values))
+
+
+@pytest.mark.slow
+def test_fit_quick_all_parameters_with_figures_and_resume(tmp_path):
+    out = tmp_path / "out"
+    args = ["fit", str(DATA / "T2.toml"), "--out", str(out), "--quick", "--no-progress"]
+    assert main(args) == 0
+    for name in ("corner", "traces", "predictive_T2", "residuals_T2", "ls_history", "waterfall"):
+        assert (out / f"{name}.png").stat().st_size > 10_000
+    assert main(args + ["--resume", "--no-figures"]) == 0
+
+
+@pytest.mark.parametrize(
+    "config, match",
+    [
+        ('[parameters]\nfixed = ["mu"]\nsampled = ["mu"]\n', "either fixed or sampled"),
+        ("[parameters]\nbounds = { mu = [10.0, 1.0] }\n", "mu bounds: expected lower < upper"),
+        ("[parameters]\ninitial = { mu = 5000.0 }\n", "mu initial/fixed value: expected a value"),
+        ('[parameters]\nsampled = ["nu"]\n', "sampled parameter names: expected names among"),
+        ('[likelihood]\nnoise = "cauchy"\n', "likelihood.noise: expected one of"),
+        ("[sampler]\nwalkers = 3\n", r"\[sampler\] keys: expected keys among"),
+    ],
+)
+def test_fit_bad_config_exits_2(tmp_path, capsys, config, match):
+    cfg = _config(tmp_path, config)
+    code = main(["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(tmp_path / "o")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bayestissue fit: error:")
+    import re
+
+    assert re.search(match, err), err
+
+
+def test_fit_bad_experiment_files_exit_2(tmp_path, capsys):
+    code = main(["fit", str(tmp_path / "missing.toml"), "--out", str(tmp_path / "o")])
+    assert code == 2
+    assert "missing.toml" in capsys.readouterr().err
+    shutil.copy(DATA / "T2.toml", tmp_path / "T2.toml")
+    lines = (DATA / "T2.csv").read_text().splitlines()
+    header = [i for i, line in enumerate(lines) if line.startswith("time_s")][0]
+    cells = lines[header + 5].split(",")
+    cells[1] = "nan"
+    lines[header + 5] = ",".join(cells)
+    (tmp_path / "T2.csv").write_text("\n".join(lines) + "\n")
+    code = main(["fit", str(tmp_path / "T2.toml"), "--out", str(tmp_path / "o")])
+    assert code == 2
+    assert "displacement_mm" in capsys.readouterr().err

@@ -1,0 +1,182 @@
+"""``bayestissue micrographs``: phantom -> files -> analyse -> stereology tables; bad input."""
+
+import json
+
+import numpy as np
+import pytest
+import tifffile
+
+from bayestissue.cli import main
+from bayestissue.io.micrographs import read_micrographs, read_truth, write_micrographs
+from bayestissue.io.stereology_files import read_line_system, read_point_counts
+
+SMALL = ["--extent-um", "30", "60", "60", "--seed", "2"]
+
+
+@pytest.fixture(scope="module")
+def phantom_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("phantom")
+    assert main(["micrographs", "phantom", str(d), *SMALL]) == 0
+    return d
+
+
+def test_phantom_writes_images_and_truth(phantom_dir):
+    images, names = read_micrographs(phantom_dir)
+    assert images.shape[0] == 6 and images.shape[-1] == 3 and names[0] == "section_000.png"
+    truth = read_truth(phantom_dir / "truth.json")
+    assert truth["synthetic"] is True and truth["seed"] == 2
+    assert len(truth["sections"]["transforms_ref_to_section"]) == 6
+
+
+def test_analyse_writes_the_stereology_tables(phantom_dir, tmp_path, capsys):
+    out = tmp_path / "out"
+    rc = main(["micrographs", "analyse", str(phantom_dir), "--pixel-size-um", "1",
+               "--section-thickness-um", "5", "--out", str(out), "--quiet"])  # fmt: skip
+    assert rc == 0
+    assert "of tissue" in capsys.readouterr().out
+    pc = read_point_counts(out / "point_counts.csv")
+    assert pc["grid_spacing_um"] == 10 and pc["components"] == ("cavity", "ecm", "smc")
+    assert len(pc["section"]) == 3  # every second of 6 sections
+    ls = read_line_system(out / "lines.csv")
+    assert ls["volume_um3"] > 0 and len(ls["cell"]) > 5
+    summary = json.loads((out / "summary.json").read_text())
+    truth = read_truth(phantom_dir / "truth.json")["volume_fractions"]
+    assert summary["volume_fractions_points"]["smc_tissue"] == pytest.approx(truth["smc_tissue"], abs=0.15)
+    assert (out / "overlay.png").stat().st_size > 10_000
+
+
+def test_multipage_tiff_is_read(phantom_dir, tmp_path):
+    images, _ = read_micrographs(phantom_dir)
+    (p,) = write_micrographs(tmp_path, images, fmt="tiff")
+    again, names = read_micrographs(p)
+    assert np.array_equal(again, images) and names[0].endswith("[0]")
+
+
+def test_missing_pixel_size_is_a_usage_error(phantom_dir, tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["micrographs", "analyse", str(phantom_dir), "--section-thickness-um", "5",
+              "--out", str(tmp_path)])  # fmt: skip
+    assert e.value.code == 2
+    assert "--pixel-size-um" in capsys.readouterr().err
+
+
+def _analyse(src, tmp_path):
+    return main(["micrographs", "analyse", str(src), "--pixel-size-um", "1",
+                 "--section-thickness-um", "5", "--out", str(tmp_path / "o"), "--quiet"])  # fmt: skip
+
+
+def test_sections_of_different_sizes_are_refused(phantom_dir, tmp_path, capsys):
+    images, _ = read_micrographs(phantom_dir)
+    write_micrographs(tmp_path / "s", images[:3])
+    write_micrographs(tmp_path / "s", images[3:4, :-2], prefix="zz")
+    assert _analyse(tmp_path / "s", tmp_path) == 2
+    err = capsys.readouterr().err
+    assert "section size: expected every section the size of section_000.png" in err
+
+
+def test_grayscale_stack_is_refused(phantom_dir, tmp_path, capsys):
+    images, _ = read_micrographs(phantom_dir)
+    tifffile.imwrite(tmp_path / "gray.tif", images.mean(axis=-1).astype(np.uint8))
+    assert _analyse(tmp_path / "gray.tif", tmp_path) == 2
+    assert "expected RGB micrographs" in capsys.readouterr().err
+
+
+def test_empty_and_missing_sources(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    assert _analyse(tmp_path / "empty", tmp_path) == 2
+    assert "source: expected a folder with" in capsys.readouterr().err
+    assert _analyse(tmp_path / "nope", tmp_path) == 2
+    assert "does not exist" in capsys.readouterr().err
+    blank = np.full((3, 40, 40, 3), 250, dtype=np.uint8)
+    write_micrographs(tmp_path / "blank", blank)
+    assert _analyse(tmp_path / "blank", tmp_path) == 2
+    assert "fixed: expected an image with structure" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def chain():
+    """Phantom -> images -> pipeline on the default 60 x 100 x 100 um phantom (seed 1)."""
+    from bayestissue.cli.micrographs import analyse_micrographs
+    from bayestissue.stereology.phantom import PhantomOptions, make_phantom
+    from bayestissue.stereology.render import render_sections
+
+    p = make_phantom(PhantomOptions(), rng=1)
+    s = render_sections(p, rng=1)
+    res = analyse_micrographs(s.images, pixel_um=1.0, thickness_um=5.0, grid_spacing_um=8.0,
+                              rng=1)  # fmt: skip
+    return p, s, res
+
+
+def _field_truth(p, s, valid):
+    from bayestissue.stereology.segmentation import label_fractions
+
+    m = s.margin_px
+    n, H, W = s.labels.shape
+    block = p.components[: n * 5, m : m + H, m : m + W]
+    ys, xs = np.nonzero(valid)
+    box = ((m + xs.min(), m + xs.max() + 1), (m + ys.min(), m + ys.max() + 1), (0, n * 5))
+    return label_fractions(block, valid=valid), p.length_density(box)
+
+
+@pytest.mark.slow
+def test_chain_registration_and_volume_fractions(chain):
+    from bayestissue.stereology.registration import displacement_error_px
+
+    p, s, res = chain
+    err = displacement_error_px(res.registered.transforms, s.transforms, s.images.shape[1:3])
+    assert err.mean() < 1.0
+    vf, _ = _field_truth(p, s, res.registered.valid)
+    smc = res.point_counts().summary()["smc"]
+    seg_err = 0.03  # measured bias of the colour segmentation on these phantoms (+0.013 to +0.02)
+    tol = 2 * smc["CE_q_hat"] * smc["V_V"] + seg_err
+    assert abs(smc["V_V"] - vf["smc_tissue"]) < tol
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="known: +19 % on this seed (merged cells, measured area)")
+def test_chain_length_density_within_15_percent(chain):
+    p, s, res = chain
+    _, lv = _field_truth(p, s, res.registered.valid)
+    assert res.traced.length_density() == pytest.approx(lv, rel=0.15)
+
+
+@pytest.mark.slow
+def test_chain_directions_within_10_degrees(chain):
+    from bayestissue.stereology.axial import axial_angle, fit_watson_mixture
+    from bayestissue.stereology.uncertainty import align_axes
+
+    p, s, res = chain
+    tr = res.traced
+    mix = fit_watson_mixture(tr.directions, 3, weights=tr.lengths_um, rng=0)
+    truth = np.array(p.options.axes)
+    aligned, _ = align_axes(mix.axes, truth)
+    assert np.all(axial_angle(aligned, truth) < 10)
+
+
+def test_io_and_library_errors(tmp_path, phantom_dir, capsys):
+    from bayestissue._validation import ValidationError
+    from bayestissue.cli.micrographs import analyse_micrographs
+    from bayestissue.io.micrographs import write_truth
+
+    images, _ = read_micrographs(phantom_dir)
+    with pytest.raises(ValidationError, match="pixel_um: expected the pixel size in um"):
+        analyse_micrographs(images, pixel_um=None, thickness_um=5.0)
+    with pytest.raises(ValidationError, match="thickness_um: expected the section thickness"):
+        analyse_micrographs(images, pixel_um=1.0, thickness_um=None)
+    with pytest.raises(ValidationError, match="fmt: expected 'png' or 'tiff'"):
+        write_micrographs(tmp_path, images, fmt="jpg")
+    with pytest.raises(ValidationError, match="truth: expected a synthetic truth record"):
+        write_truth(tmp_path / "t.json", {"seed": 1})
+    with pytest.raises(FileNotFoundError, match="truth file"):
+        read_truth(tmp_path / "missing.json")
+    (tmp_path / "a.jpg").write_bytes(b"")
+    with pytest.raises(ValidationError, match="source: expected a folder of PNG/TIFF sections"):
+        read_micrographs(tmp_path / "a.jpg")
+    tifffile.imwrite(tmp_path / "f.tif", np.full((2, 20, 20), 3.5, dtype=np.float32))
+    with pytest.raises(ValidationError, match="expected 8-bit, 16-bit or"):
+        read_micrographs(tmp_path / "f.tif")
+    rc = main(["micrographs", "analyse", str(phantom_dir), "--pixel-size-um", "1",
+               "--section-thickness-um", "5", "--out", str(tmp_path / "o"), "--quiet",
+               "--overlay-section", "99"])  # fmt: skip
+    assert rc == 2
+    assert "overlay_section: expected a section index in [0, 5]" in capsys.readouterr().err

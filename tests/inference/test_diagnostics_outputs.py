@@ -1,0 +1,103 @@
+"""Diagnostics (R-hat between ensembles, ESS), InferenceData/NetCDF with provenance, summary, config."""
+
+import numpy as np
+import pytest
+
+from bayestissue.inference import SamplerOptions, sample_posterior
+from bayestissue.inference.diagnostics import ess_walkers, import_arviz, rhat_ensembles
+from bayestissue.inference.linear import linear_gaussian_posterior, linear_gaussian_problem
+from bayestissue.inference.posterior import to_inference_data
+from bayestissue.inference.summary import summary_table, table_markdown
+from bayestissue.inference.warmstart import fit_least_squares
+from bayestissue.io.results import (
+    file_sha256,
+    provenance,
+    read_config,
+    read_inference_data,
+    write_inference_data,
+)
+
+
+def test_rhat_between_ensembles_detects_a_shifted_ensemble():
+    rng = np.random.default_rng(0)
+    draws = rng.standard_normal((4, 200, 10, 2))
+    assert np.all(rhat_ensembles(draws) < 1.01)
+    shifted = draws.copy()
+    shifted[0] += 0.5
+    assert np.all(rhat_ensembles(shifted) > 1.01)  # fails the verdict
+    ess = ess_walkers(draws)
+    assert np.all(ess > 0.7 * 8000)
+    with pytest.raises(ValueError, match="draws: expected shape"):
+        rhat_ensembles(draws[:1])
+
+
+@pytest.fixture(scope="module")
+def small_run():
+    problem, truth = linear_gaussian_problem(rng=1)
+    mean, cov = linear_gaussian_posterior(problem)
+    ls = fit_least_squares(problem)
+    opts = SamplerOptions(n_walkers=8, max_steps=400, check_every=100, prune_steps=50)
+    sample = sample_posterior(problem, ls.x, cov=ls.cov, options=opts, rng=3)
+    return problem, truth, ls, sample
+
+
+def test_inference_data_round_trip_with_provenance(small_run, tmp_path):
+    problem, truth, ls, sample = small_run
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text('[sampler]\nseed = 3\n[likelihood]\nnoise = "gaussian"\n')
+    data = tmp_path / "data.csv"
+    data.write_text("time_s,displacement_mm\n0,0\n")
+    attrs = provenance(seed=3, config_path=cfg, data_paths=[data])
+    idata = to_inference_data(sample, least_squares=ls, attrs=attrs, max_draws=600, rng=0)
+    assert set(idata.groups()) >= {
+        "posterior",
+        "sample_stats",
+        "log_likelihood",
+        "posterior_predictive",
+        "observed_data",
+        "constant_data",
+    }
+    n_chain = idata.posterior.sizes["chain"]
+    assert n_chain == 4 * 8 and n_chain * idata.posterior.sizes["draw"] <= 600
+    assert idata.log_likelihood["E1"].shape[-1] == 40
+    path = write_inference_data(idata, tmp_path / "post.nc")
+    back = read_inference_data(path)
+    assert back.posterior.attrs["config_sha256"] == file_sha256(cfg)
+    assert back.posterior.attrs[f"data_sha256:{data.name}"] == file_sha256(data)
+    assert back.posterior.attrs["seed"] == 3
+    assert "bayestissue_version" in back.posterior.attrs
+    np.testing.assert_allclose(back.posterior["x0"].values, idata.posterior["x0"].values)
+    np.testing.assert_allclose(back.constant_data["least_squares_estimate"].values, ls.x)
+    az = import_arviz()
+    loo = az.loo(back)
+    assert np.isfinite(loo.elpd_loo)
+
+
+def test_summary_flags(small_run):
+    problem, truth, ls, sample = small_run
+    table = summary_table(problem, ls, sample, None, references={"E1": {"generating": truth}})
+    cols = table["columns"]
+    assert list(cols["parameter"]) == ["x0", "x1", "x2"]
+    np.testing.assert_allclose(cols["generating"], truth)
+    assert np.all(cols["contraction"] > 0.99)
+    assert all(f == "-" for f in cols["flags"])
+    # a least-squares estimate far from the posterior is flagged
+    moved = type(ls)(**{**ls.__dict__, "x": ls.x + 1.0})
+    flagged = summary_table(problem, moved, sample, None)["columns"]["flags"]
+    assert all("ls_outside_90" in f for f in flagged)
+    md = table_markdown(table, title="t")
+    assert md.startswith("# t") and "| x0 |" in md
+
+
+def test_config_errors(tmp_path):
+    assert read_config(None) == {}
+    with pytest.raises(FileNotFoundError, match="configuration file"):
+        read_config(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[sampler\nseed = 1\n")
+    with pytest.raises(ValueError, match="configuration bad.toml: expected valid TOML"):
+        read_config(bad)
+    unknown = tmp_path / "unknown.toml"
+    unknown.write_text("[mcmc]\nseed = 1\n")
+    with pytest.raises(ValueError, match=r"configuration unknown.toml sections: expected sections"):
+        read_config(unknown)
