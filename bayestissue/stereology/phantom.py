@@ -40,9 +40,6 @@ __all__ = [
 #: Component codes used by the phantom, the renderer and the segmentation.
 CAVITY, ECM, SMC = 0, 1, 2
 
-_PLACEMENTS = ("bundles", "random")
-_DEFAULT_OVERLAP = {"bundles": 0.05, "random": 0.25}
-
 #: Default fibre axes (x, y, z): the paper's three SMC directions (MODEL.md; printed rounded, |v| =
 #: 0.9974), normalised.
 _PAPER_AXES = tuple(
@@ -93,16 +90,12 @@ class PhantomOptions:
     axes: tuple = _PAPER_AXES
     weights: tuple[float, float, float] = (1 / 3, 1 / 3, 1 / 3)
     kappa: float = 20.0
-    max_overlap: float | None = None
+    max_overlap: float = 0.25
     max_in_cavity: float = 0.5
     gap_um: float = 0.0
-    seams: bool | None = None
+    seams: bool = False
     cavity_scale_um: tuple[float, float, float] = (40.0, 8.0, 8.0)
     max_attempts: int | None = None
-    placement: str = "bundles"
-    bundle_radius_um: float = 12.0
-    bundle_kappa: float = 2000.0
-    seam_um: float = 0.0
 
     def __post_init__(self):
         ext = np.asarray(self.extent_um, dtype=float)
@@ -129,17 +122,11 @@ class PhantomOptions:
         if np.any(w < 0) or abs(w.sum() - 1) > 1e-6:
             raise ValidationError("weights", self.weights, "non-negative weights summing to 1")
         check_positive("kappa", self.kappa)
-        if self.max_overlap is not None:
-            check_interval("max_overlap", self.max_overlap, 0.0, 1.0)
+        check_interval("max_overlap", self.max_overlap, 0.0, 1.0)
         check_interval("max_in_cavity", self.max_in_cavity, 0.0, 1.0)
         if self.max_attempts is not None and (int(self.max_attempts) != self.max_attempts or self.max_attempts < 1):
             raise ValidationError("max_attempts", self.max_attempts, "a positive integer or None")
         check_positive("gap_um", self.gap_um, allow_zero=True)
-        if self.placement not in _PLACEMENTS:
-            raise ValidationError("placement", self.placement, "'bundles' or 'random'")
-        check_positive("bundle_radius_um", self.bundle_radius_um)
-        check_positive("bundle_kappa", self.bundle_kappa)
-        check_positive("seam_um", self.seam_um, allow_zero=True)
         sc = np.asarray(self.cavity_scale_um, dtype=float)
         if sc.shape != (3,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
             raise ValidationError("cavity_scale_um", self.cavity_scale_um, "three positive lengths (z, y, x) in um")
@@ -368,66 +355,6 @@ def _carve_seams(cell_ids: np.ndarray) -> int:
     return int(seam.sum())
 
 
-def _random_candidates(o, axes, weights, upper, rng, batch=256):
-    """Endless candidates (centre, axis, component): centres uniform in the block dilated by a."""
-    a = o.cell_length_um / 2
-    while True:
-        comp = rng.choice(len(weights), size=batch, p=weights)
-        dirs = np.empty((batch, 3))
-        for k in range(len(weights)):
-            sel = comp == k
-            if sel.any():
-                dirs[sel] = sample_watson_axes(axes[k], o.kappa, int(sel.sum()), rng=rng)
-        centres = rng.uniform(size=(batch, 3)) * (upper + 2 * a) - a
-        for j in range(batch):
-            yield centres[j], dirs[j] * (-1.0 if dirs[j][2] < 0 else 1.0), comp[j]
-
-
-def _frame(axis, rng):
-    """Orthonormal (e1, e2) perpendicular to ``axis``, randomly rotated about it."""
-    helper = np.array([1.0, 0, 0]) if abs(axis[0]) < 0.9 else np.array([0, 1.0, 0])
-    e1 = np.cross(axis, helper)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
-    phi = rng.uniform(0, 2 * np.pi)
-    return np.cos(phi) * e1 + np.sin(phi) * e2, -np.sin(phi) * e1 + np.cos(phi) * e2
-
-
-def _bundle_candidates(o, axes, weights, upper, rng):
-    """Endless candidates laid out as bundles of parallel, densely packed cells.
-
-    Each bundle draws its component and its axis from the Watson mixture and a centre uniform in
-    the block; its cells sit on the densest lattice packing of ellipsoids (the affine image of the
-    face-centred cubic lattice, density 0.7405; Groemer 1963) of cells grown by ``seam_um / 2``,
-    within ``bundle_radius_um`` of the bundle axis across the whole block. Every cell's own axis
-    scatters about the bundle axis (Watson, ``bundle_kappa``).
-    """
-    a, b = o.cell_length_um / 2 + o.seam_um / 2, o.cell_radius_um + o.seam_um / 2
-    half = float(np.linalg.norm(upper)) / 2 + a
-    layer = 2 * np.sqrt(2 / 3) * a
-    n_l = int(np.ceil(half / layer)) + 1
-    m = int(np.ceil((o.bundle_radius_um + 2 * n_l * b) / b)) + 2
-    ii, jj, ll = (g.ravel() for g in np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), np.arange(-n_l, n_l + 1)))
-    while True:
-        k = rng.choice(len(weights), p=weights)
-        axis = sample_watson_axes(axes[k], o.kappa, 1, rng=rng)[0]
-        axis = axis * (-1.0 if axis[2] < 0 else 1.0)
-        e1, e2 = _frame(axis, rng)
-        ph = rng.uniform(size=3)
-        i, j, l_ = ii + ph[0], jj + ph[1], ll + ph[2]
-        lat1 = 2 * b * i + b * j + b * l_
-        lat2 = np.sqrt(3) * b * j + b / np.sqrt(3) * l_
-        along = layer * l_
-        keep = (lat1**2 + lat2**2 <= o.bundle_radius_um**2) & (np.abs(along) <= half)
-        centre = rng.uniform(size=3) * upper
-        pts = centre + lat1[keep, None] * e1 + lat2[keep, None] * e2 + along[keep, None] * axis
-        own = sample_watson_axes(axis, o.bundle_kappa, len(pts), rng=rng)
-        own *= np.where(own @ axis < 0, -1.0, 1.0)[:, None]
-        own *= np.where(own[:, 2] < 0, -1.0, 1.0)[:, None]
-        for q in rng.permutation(len(pts)):
-            yield pts[q], own[q], k
-
-
 def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePhantom:
     r"""Generate a tissue block with known volume fractions and cell axes.
 
@@ -483,51 +410,59 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
     ball = ndimage.generate_binary_structure(3, 1)
     segments, directions, comps = [], [], []
     n_smc = 0
+    batch = 256
     attempts = 0
     goal = n_target
-    max_overlap = o.max_overlap if o.max_overlap is not None else _DEFAULT_OVERLAP[o.placement]
-    draw = _random_candidates if o.placement == "random" else _bundle_candidates
-    candidates = draw(o, axes, weights, upper, rng)
     while True:
         while n_smc < goal:
             if attempts >= max_attempts:
                 raise ValidationError(
                     "smc_fraction",
                     o.smc_fraction,
-                    f"a density reachable with placement={o.placement!r}, max_overlap={max_overlap}, gap_um={o.gap_um}",
+                    f"a density reachable with max_overlap={o.max_overlap}, gap_um={o.gap_um}",
                     f"reached {n_smc / (np.prod(shape) - n_cav):.3f} of the tissue after "
                     f"{attempts} candidates; raise max_overlap or lower gap_um",
                 )
-            centre, d, comp = next(candidates)
-            attempts += 1
-            seg = clip_segment_to_box(centre - a * d, centre + a * d, upper)
-            if seg is None:
-                continue
-            vox = _ellipsoid_voxels(centre, d, a, b, shape, v)
-            if vox is None or vox[0].size == 0:
-                continue
-            in_tissue = ~cavity[vox]
-            if in_tissue.mean() < 1 - o.max_in_cavity:
-                continue
-            if (blocked[vox] & in_tissue).mean() > max_overlap:
-                continue
-            free = (cell_ids[vox] == 0) & in_tissue
-            idx = tuple(x[free] for x in vox)
-            cell_ids[idx] = len(segments) + 1
-            n_smc += int(free.sum())
-            if gap_vox > 0:
-                lo = [max(0, int(x.min()) - gap_vox) for x in vox]
-                hi = [min(s, int(x.max()) + gap_vox + 1) for x, s in zip(vox, shape, strict=True)]
-                box = tuple(slice(l_, h_) for l_, h_ in zip(lo, hi, strict=True))
-                sub = np.zeros([h_ - l_ for l_, h_ in zip(lo, hi, strict=True)], dtype=bool)
-                sub[tuple(x - l_ for x, l_ in zip(vox, lo, strict=True))] = True
-                blocked[box] |= ndimage.binary_dilation(sub, ball, iterations=gap_vox)
-            else:
-                blocked[vox] = True
-            segments.append(seg)
-            directions.append(d)
-            comps.append(int(comp))
-        if not (o.seams if o.seams is not None else o.placement == "bundles"):
+            comp = rng.choice(len(weights), size=batch, p=weights)
+            dirs = np.empty((batch, 3))
+            for k in range(len(weights)):
+                sel = comp == k
+                if sel.any():
+                    dirs[sel] = sample_watson_axes(axes[k], o.kappa, int(sel.sum()), rng=rng)
+            centres = rng.uniform(size=(batch, 3)) * (upper + 2 * a) - a
+            for j in range(batch):
+                attempts += 1
+                d = dirs[j] * (-1.0 if dirs[j][2] < 0 else 1.0)
+                seg = clip_segment_to_box(centres[j] - a * d, centres[j] + a * d, upper)
+                if seg is None:
+                    continue
+                vox = _ellipsoid_voxels(centres[j], d, a, b, shape, v)
+                if vox is None or vox[0].size == 0:
+                    continue
+                in_tissue = ~cavity[vox]
+                if in_tissue.mean() < 1 - o.max_in_cavity:
+                    continue
+                if (blocked[vox] & in_tissue).mean() > o.max_overlap:
+                    continue
+                free = (cell_ids[vox] == 0) & in_tissue
+                idx = tuple(x[free] for x in vox)
+                cell_ids[idx] = len(segments) + 1
+                n_smc += int(free.sum())
+                if gap_vox > 0:
+                    lo = [max(0, int(x.min()) - gap_vox) for x in vox]
+                    hi = [min(s, int(x.max()) + gap_vox + 1) for x, s in zip(vox, shape, strict=True)]
+                    box = tuple(slice(l_, h_) for l_, h_ in zip(lo, hi, strict=True))
+                    sub = np.zeros([h_ - l_ for l_, h_ in zip(lo, hi, strict=True)], dtype=bool)
+                    sub[tuple(x - l_ for x, l_ in zip(vox, lo, strict=True))] = True
+                    blocked[box] |= ndimage.binary_dilation(sub, ball, iterations=gap_vox)
+                else:
+                    blocked[vox] = True
+                segments.append(seg)
+                directions.append(d)
+                comps.append(int(comp[j]))
+                if n_smc >= goal:
+                    break
+        if not o.seams:
             break
         n_smc -= _carve_seams(cell_ids)
         if n_smc >= n_target:
