@@ -40,6 +40,10 @@ from bayestissue.plotting.inference import calibration_figures  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 20261121
+#: Fibre families 2 and 3 are mirror images about the loading axis: exchanging their parameters leaves the
+#: displacement unchanged, so the posterior has two label-switched copies of every mode. The study restricts
+#: the prior to ginf2 >= ginf3 (CalibrationConfig.exchangeable) to remove the duplicate.
+MIRROR = [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
 
 MODES = {
     "quick": {
@@ -104,7 +108,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         path = args.data / f"{name}.toml"
         exp = load_experiment(path)
-        config = config_from_mapping(None, seed=SEED, **MODES[key])
+        config = config_from_mapping(None, seed=SEED, exchangeable=MIRROR, **MODES[key])
         prov = provenance(seed=SEED, data_paths=[path, path.with_suffix(".csv")])
         prov["study"] = f"studies/calibrate.py --{key}"
         run_dir = args.runs / name

@@ -35,7 +35,6 @@ def register(subparsers) -> None:
 QUICK_SAMPLER = {
     "max_steps": 300,
     "check_every": 100,
-    "n_ensembles": 4,
     "prune_rounds": 1,
     "prune_steps": 50,
 }

@@ -86,6 +86,11 @@ class CalibrationConfig:
     sampler : :class:`~bayestissue.inference.sampling.SamplerOptions`.
     seed : master seed (least-squares starts, walkers, sampler streams, predictive noise).
     max_draws, n_predictive : size of the stored posterior and of the posterior predictive.
+    exchangeable : two groups of parameters whose exchange leaves the likelihood unchanged (fibre
+        families 2 and 3 are mirror images about the loading axis), e.g.
+        ``[["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]``: the prior is restricted to
+        ``ginf2 >= ginf3`` (see :meth:`CalibrationProblem.log_prior`). Off by default (the paper's
+        problem as stated).
     """
 
     prior: str = "default"
@@ -103,6 +108,7 @@ class CalibrationConfig:
     seed: int = 20261121
     max_draws: int = 4000
     n_predictive: int = 400
+    exchangeable: Sequence[Sequence[str]] | None = None
 
     def __post_init__(self):
         if self.noise not in NOISE_MODELS:
@@ -113,7 +119,7 @@ class CalibrationConfig:
 
 
 _SECTION_KEYS = {
-    "parameters": {"prior", "fixed", "sampled", "bounds", "priors", "initial"},
+    "parameters": {"prior", "fixed", "sampled", "bounds", "priors", "initial", "exchangeable"},
     "likelihood": {"noise", "sd", "nu", "rho", "sd_bounds", "rho_bounds"},
     "warmstart": {"n_starts", "max_nfev"},
     "sampler": {f.name for f in fields(SamplerOptions)} | {"seed", "sample"},
@@ -143,7 +149,8 @@ def config_from_mapping(cfg: Mapping | None = None, **overrides) -> CalibrationC
     ws = cfg.get("warmstart", {})
     smp = dict(cfg.get("sampler", {}))
     out = cfg.get("output", {})
-    kw = {k: par[k] for k in ("prior", "fixed", "sampled", "bounds", "priors", "initial") if k in par}
+    keys = ("prior", "fixed", "sampled", "bounds", "priors", "initial", "exchangeable")
+    kw = {k: par[k] for k in keys if k in par}
     if "noise" in lik:
         kw["noise"] = lik.pop("noise")
     kw["noise_options"] = {k: (tuple(v) if isinstance(v, list) else v) for k, v in lik.items()}
@@ -244,7 +251,7 @@ def build_problem(experiments: Sequence, config: CalibrationConfig) -> Calibrati
                 {"synthetic": bool(e.synthetic), "source": str(e.source or "")},
             )
         )
-    return CalibrationProblem(terms, material)
+    return CalibrationProblem(terms, material, exchangeable=config.exchangeable)
 
 
 @dataclass
@@ -364,7 +371,8 @@ def _ensemble_centres(problem, fits, best, config):
             distinct.append(r)
     n = config.sampler.n_ensembles
     chosen = [distinct[k % len(distinct)] for k in range(n)]
-    return np.array([problem.nuisance_estimate(r.x) for r in chosen]), [r.cov for r in chosen]
+    centres = problem.canonical(np.array([problem.nuisance_estimate(r.x) for r in chosen]))
+    return centres, [r.cov for r in chosen]
 
 
 def _write(outcome: CalibrationOutcome, out_dir) -> None:

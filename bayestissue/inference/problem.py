@@ -111,7 +111,13 @@ class CalibrationProblem:
         predictions).
     """
 
-    def __init__(self, experiments: Sequence[ExperimentTerm], material: ParameterSet):
+    def __init__(
+        self,
+        experiments: Sequence[ExperimentTerm],
+        material: ParameterSet,
+        *,
+        exchangeable: Sequence[Sequence[str]] | None = None,
+    ):
         experiments = tuple(experiments)
         if not experiments or not all(isinstance(e, ExperimentTerm) for e in experiments):
             raise ValidationError("experiments", experiments, "a non-empty sequence of ExperimentTerm")
@@ -131,6 +137,18 @@ class CalibrationProblem:
             start += len(specs)
             nuisance.extend(specs)
         self.parameters = ParameterSet(material.specs + tuple(nuisance), material.fixed_inputs)
+        self.exchangeable = None
+        if exchangeable:
+            groups = [list(g) for g in exchangeable]
+            names = self.parameters.sampled_names
+            if len(groups) != 2 or len(groups[0]) != len(groups[1]) or not groups[0]:
+                raise ValidationError("exchangeable", exchangeable, "two parameter groups of equal length")
+            unknown = sorted({n for g in groups for n in g} - set(names))
+            if unknown:
+                raise ValidationError(
+                    "exchangeable parameter names", unknown, f"sampled parameters among {list(names)}"
+                )
+            self.exchangeable = tuple(np.array([names.index(n) for n in g]) for g in groups)
         self.n_evaluations = 0
         self.n_failed = 0
 
@@ -220,17 +238,42 @@ class CalibrationProblem:
         total = sum(ll.sum(axis=1) for ll in self.log_likelihood_pointwise(theta))
         return float(total[0]) if single else total
 
-    def log_prior(self, theta) -> np.ndarray:
-        """Box-prior log-density of ``theta`` (natural units); ``-inf`` outside the box."""
-        theta, single = self._batch(theta)
+    def canonical(self, theta) -> np.ndarray:
+        """Swap the exchangeable groups where needed so that the first group's leading parameter is
+        not smaller than the second's (identity without ``exchangeable``)."""
+        theta = np.array(theta, dtype=float, copy=True)
+        if self.exchangeable is None:
+            return theta
+        t2 = np.atleast_2d(theta)
+        a, b = self.exchangeable
+        swap = t2[:, a[0]] < t2[:, b[0]]
+        t2[np.ix_(swap, a)], t2[np.ix_(swap, b)] = t2[np.ix_(swap, b)], t2[np.ix_(swap, a)]
+        return t2.reshape(theta.shape)
+
+    def _prior(self, theta) -> np.ndarray:
         lp = self.parameters.log_prior(theta)
+        if self.exchangeable is not None:
+            a, b = self.exchangeable
+            lp = np.where(theta[:, a[0]] >= theta[:, b[0]], lp + np.log(2.0), -np.inf)
+        return lp
+
+    def log_prior(self, theta) -> np.ndarray:
+        """Box-prior log-density of ``theta`` (natural units); ``-inf`` outside the box.
+
+        With ``exchangeable`` groups (e.g. the parameters of two mirror-symmetric fibre families, whose
+        exchange leaves the likelihood unchanged) the prior is restricted to the half-space in which
+        the first group's leading parameter is the larger (density doubled): this removes the
+        label-switching mode without changing the posterior of symmetric functions of the groups.
+        """
+        theta, single = self._batch(theta)
+        lp = self._prior(theta)
         return float(lp[0]) if single else lp
 
     def log_posterior(self, theta) -> np.ndarray:
         """Unnormalised log-posterior in natural units; the forward model is only run inside the
         box."""
         theta, single = self._batch(theta)
-        lp = self.parameters.log_prior(theta)
+        lp = self._prior(theta)
         inside = np.isfinite(lp)
         out = np.full(theta.shape[0], -np.inf)
         if np.any(inside):

@@ -80,8 +80,18 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
     wl[:m], wu[:m] = least_squares.wald_lower, least_squares.wald_upper
     cols["ls_estimate"] = ls
     cols["wald_lower_90"], cols["wald_upper_90"] = wl, wu
+    active = np.zeros(n, dtype=int)
+    active[:m] = least_squares.active
+    perm = np.arange(n)
+    if getattr(problem, "exchangeable", None) is not None:  # report the LS optimum in the same labelling
+        a_idx, b_idx = problem.exchangeable
+        if ls[a_idx[0]] < ls[b_idx[0]]:
+            perm[a_idx], perm[b_idx] = b_idx, a_idx
+    ls, wl, wu, active = ls[perm], wl[perm], wu[perm], active[perm]
+    cols["ls_estimate"] = ls
+    cols["wald_lower_90"], cols["wald_upper_90"] = wl, wu
     flags = [[] for _ in range(n)]
-    for j, a in enumerate(least_squares.active):
+    for j, a in enumerate(active):
         if a:
             flags[j].append("bound_active_lower" if a < 0 else "bound_active_upper")
     meta = {

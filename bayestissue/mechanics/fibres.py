@@ -31,9 +31,8 @@ References: Rohan, Cimrman & Kochova (2012), paper eqs. (5)-(9) (file 000_317b62
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
+from bayestissue.mechanics._jit import kernel
 
 __all__ = [
     "KelvinFibres",
@@ -62,7 +61,7 @@ def fibre_structure(directions) -> np.ndarray:
     )
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def kelvin_step_constants(gamma, beta, dt, ea, eh, c):
     """Fill per-fibre ``ea = exp(-beta dt)``, ``eh = exp(-beta dt / 2)``, ``c = 1 - gamma eh`` (eq. (5))."""
     for k in range(gamma.shape[0]):
@@ -71,7 +70,7 @@ def kelvin_step_constants(gamma, beta, dt, ea, eh, c):
         c[k] = 1.0 - gamma[k] * eh[k]
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def fibre_stress_tangent(e, M, phi, ginf, eps0, c, q, S, D, tau, want_tangent):
     """Add the fibre stress to ``S`` (6,) and, if ``want_tangent``, its tangent to ``D`` (6, 6).
 
@@ -95,7 +94,7 @@ def fibre_stress_tangent(e, M, phi, ginf, eps0, c, q, S, D, tau, want_tangent):
             tau[k] = 0.0
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def fibre_tension(e, M, ginf, eps0, c, q, tau):
     """Eqs. (5)-(6) only: the tensions ``tau`` (n_f,) at Voigt strain ``e`` (no stress, no tangent)."""
     for k in range(M.shape[0]):
@@ -104,7 +103,7 @@ def fibre_tension(e, M, ginf, eps0, c, q, tau):
         tau[k] = max(0.0, (ginf[k] * (eps - eps0[k]) + q[k]) / c[k])
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def fibre_energy(e, M, phi, ginf, eps0, c, q):
     r"""Incremental fibre potential :math:`\sum_k \phi_k w_k` whose strain derivative is the tension of eq. (6).
 
@@ -124,7 +123,7 @@ def fibre_energy(e, M, phi, ginf, eps0, c, q):
     return w
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def kelvin_history_update(tau_new, tau_old, h, ea, eh):
     """Eq. (7): ``h <- ea h + eh (tau_new - tau_old)`` in place."""
     for k in range(h.shape[0]):

@@ -13,9 +13,8 @@ With :math:`E` the Green strain, :math:`C = I + 2E`, :math:`J = \sqrt{\det C}`,
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
+from bayestissue.mechanics._jit import kernel
 
 __all__ = [
     "VOIGT_I",
@@ -47,7 +46,7 @@ def from_voigt(v) -> np.ndarray:
     return t
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def right_cauchy_green(e, C, Ci):
     """Fill ``C = I + 2E`` and ``Ci = C^-1`` (3x3) from the Voigt strain ``e``; return ``det C``.
 

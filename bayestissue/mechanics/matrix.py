@@ -34,9 +34,8 @@ In Voigt form the tangent column of a shear component counts both :math:`E_{cd}`
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
+from bayestissue.mechanics._jit import kernel
 from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J, right_cauchy_green
 
 __all__ = ["matrix_stress_tangent", "matrix_stress", "matrix_energy"]
@@ -45,7 +44,7 @@ _VI = VOIGT_I
 _VJ = VOIGT_J
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
     """Matrix + penalty stress ``S`` (6,) and, if ``want_tangent``, tangent ``D`` (6, 6) at Voigt strain ``e``.
 
@@ -104,7 +103,7 @@ def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
     return J
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
     """Strain energy W (kPa) of matrix + penalty at Voigt strain ``e`` (NaN if J <= 0); see the module docstring."""
     det = right_cauchy_green(e, C, Ci)

@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
+from bayestissue.mechanics._jit import kernel
 from bayestissue.mechanics.fibres import (
     fibre_energy,
     fibre_stress_tangent,
@@ -50,7 +51,7 @@ RTOL = 1e-10
 STEP_TOL = 1e-6
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def _residual(e, load, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, R, tau, D, want_tangent, C, Ci):
     """R = S(E) - P11/sqrt(C11) e1(x)e1 (and its Jacobian in D). Returns J (<= 0: inadmissible)."""
     J = matrix_stress_tangent(e, mu, kappa, phi_m, bulk, R, D, want_tangent, C, Ci)
@@ -64,14 +65,14 @@ def _residual(e, load, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, R, ta
     return J
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def _potential(e, load, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, C, Ci):
     """Incremental potential of the step: W_matrix + W_fibres - P11 (sqrt(C11) - 1); its gradient is R."""
     w = matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci)
     return w + fibre_energy(e, M, phi_f, ginf, eps0, c, q) - load * (np.sqrt(1.0 + 2.0 * e[0]) - 1.0)
 
 
-@njit(cache=True, fastmath=_FASTMATH)
+@kernel
 def _solve6(A, b, x):
     """Solve the 6x6 system A x = b by Gaussian elimination with partial pivoting (A, b overwritten).
 

@@ -53,7 +53,7 @@ def plot_corner(problem, draws, *, least_squares=None, references=None, max_poin
     data, labels = _display(problem, draws, idx)
     truths = None
     if least_squares is not None:
-        full = problem.nuisance_estimate(least_squares.x)
+        full = problem.canonical(problem.nuisance_estimate(least_squares.x))
         truths, _ = _display(problem, full[None, :], idx)
         truths = truths[0]
     fig = plt.figure(figsize=(1.6 * len(idx), 1.6 * len(idx)))
@@ -210,11 +210,15 @@ def plot_waterfall(costs, *, labels=None, ax=None, title=None):
     labels = np.zeros(costs.size, dtype=int) if labels is None else np.asarray(labels)
     ax.scatter(np.arange(costs.size), costs, c=labels, cmap="tab10", vmin=0, vmax=9, zorder=3)
     ax.plot(np.arange(costs.size), costs, color="0.6", lw=0.8)
-    ax.set_yscale("log")
+    if costs.size and costs.min() > 0 and costs.max() / costs.min() > 10:
+        ax.set_yscale("log")
+    else:
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
     ax.set_xlabel("start (sorted by final cost)")
     ax.set_ylabel("final cost F")
     if title:
         ax.set_title(title, fontsize=10)
+    ax.figure.tight_layout()
     return ax.figure
 
 

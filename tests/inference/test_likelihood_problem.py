@@ -126,3 +126,24 @@ def test_problem_errors():
     bad = CalibrationProblem([ExperimentTerm("T1", np.arange(4.0), np.zeros(4), LinearForward(np.ones((5, 1))))], mat)
     with pytest.raises(ValueError, match=r"experiment T1 forward output: expected \(n_sets, 4\)"):
         bad.predict(np.zeros((1, 2)))
+
+
+def test_exchangeable_groups_fold_the_label_switching_mode():
+    from bayestissue.inference.linear import LinearForward
+
+    t = np.linspace(0, 1, 30)
+    design = np.column_stack([np.ones_like(t), t, t])  # x1 and x2 enter symmetrically
+    specs = tuple(ParameterSpec(f"x{i}", "1", -5, 5, value=0.0) for i in range(3))
+    term = ExperimentTerm("E", t, 1 + 0.5 * t, LinearForward(design), GaussianNoise(sd=0.1))
+    plain = CalibrationProblem([term], ParameterSet(specs))
+    folded = CalibrationProblem([term], ParameterSet(specs), exchangeable=[["x1"], ["x2"]])
+    theta = np.array([[1.0, 0.4, 0.1], [1.0, 0.1, 0.4]])
+    assert plain.log_likelihood(theta)[0] == pytest.approx(plain.log_likelihood(theta)[1])
+    lp = folded.log_posterior(theta)
+    assert np.isfinite(lp[0]) and lp[1] == -np.inf
+    assert lp[0] == pytest.approx(plain.log_posterior(theta)[0] + np.log(2))
+    np.testing.assert_allclose(folded.canonical(theta), [[1.0, 0.4, 0.1], [1.0, 0.4, 0.1]])
+    with pytest.raises(ValueError, match="exchangeable: expected two parameter groups"):
+        CalibrationProblem([term], ParameterSet(specs), exchangeable=[["x1"], ["x2", "x0"]])
+    with pytest.raises(ValueError, match="exchangeable parameter names: expected sampled"):
+        CalibrationProblem([term], ParameterSet(specs), exchangeable=[["x1"], ["nu"]])
