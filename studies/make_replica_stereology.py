@@ -39,6 +39,7 @@ from bayestissue.stereology import (
     stereology_replicates,
     surs_indices,
 )
+from bayestissue.stereology.phantom import clip_segment_to_box
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -91,26 +92,6 @@ def make_counts(seed: int) -> tuple[dict, int]:
     raise RuntimeError("no seed matched")  # pragma: no cover
 
 
-def _clip_to_box(p0, p1, upper):
-    """Liang-Barsky clipping of p0 -> p1 to [0, upper]; None if outside."""
-    d = p1 - p0
-    t0, t1 = 0.0, 1.0
-    for k in range(3):
-        for p, q in ((-d[k], p0[k]), (d[k], upper[k] - p0[k])):
-            if p == 0:
-                if q < 0:
-                    return None
-            else:
-                r = q / p
-                if p < 0:
-                    t0 = max(t0, r)
-                else:
-                    t1 = min(t1, r)
-    if t0 >= t1:
-        return None
-    return p0 + t0 * d, p0 + t1 * d
-
-
 def make_lines(seed: int) -> dict:
     """Traced polylines of cells with Watson-mixture axes, scaled to the paper's total length."""
     rng = np.random.default_rng(seed)
@@ -123,7 +104,7 @@ def make_lines(seed: int) -> dict:
         # expected length share of each family inside the box equals its mixture weight
         centre = -MARGIN_UM + rng.random(3) * (upper + 2 * MARGIN_UM)
         half = 0.5 * float(np.clip(rng.normal(CELL_LENGTH_UM, CELL_LENGTH_SD_UM), 20.0, 2 * MARGIN_UM))
-        seg = _clip_to_box(centre - half * axis[0], centre + half * axis[0], upper)
+        seg = clip_segment_to_box(centre - half * axis[0], centre + half * axis[0], upper)
         if seg is None:
             continue
         a, b = seg
