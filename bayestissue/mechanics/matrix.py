@@ -38,7 +38,7 @@ import numpy as np
 from bayestissue.mechanics._jit import kernel
 from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J, right_cauchy_green
 
-__all__ = ["matrix_stress_tangent", "matrix_stress", "matrix_energy"]
+__all__ = ["matrix_stress_tangent", "matrix_energy"]
 
 _VI = VOIGT_I
 _VJ = VOIGT_J
@@ -118,22 +118,3 @@ def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
     I2 = 0.5 * (I1 * I1 - trC2)
     jm23 = 1.0 / np.cbrt(det)
     return 0.5 * phi_m * (mu * (jm23 * I1 - 3.0) + kappa * (jm23 * jm23 * I2 - 3.0)) + 0.5 * bulk * (J - 1.0) ** 2
-
-
-def matrix_stress(e, mu, kappa, phi_m, bulk):
-    """Convenience wrapper: (S (6,), D (6, 6), J) at one Voigt strain (for checks and plots)."""
-    S = np.empty(6)
-    D = np.empty((6, 6))
-    J = matrix_stress_tangent(
-        np.asarray(e, dtype=float),
-        mu,
-        kappa,
-        phi_m,
-        bulk,
-        S,
-        D,
-        True,
-        np.empty((3, 3)),
-        np.empty((3, 3)),
-    )
-    return S, D, J
