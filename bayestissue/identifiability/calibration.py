@@ -353,6 +353,6 @@ def _plain_emcee(problem, best, opts, n_steps, rng):
         sampler.random_state = np.random.RandomState(int(rng.integers(2**32 - 1))).get_state()
         sampler.run_mcmc(p0, n_steps)
         z = sampler.get_chain(discard=n_steps // 2)
-        runs.append(problem.parameters.from_unconstrained(z.reshape(-1, z.shape[-1])).reshape(z.shape))
+        runs.append(problem.coordinates.from_unconstrained(z.reshape(-1, z.shape[-1])).reshape(z.shape))
         acc.append(float(np.mean(sampler.acceptance_fraction)))
     return np.stack(runs), float(np.mean(acc))

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from bayestissue._validation import ValidationError
+from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.diagnostics import ConvergenceReport, assess_convergence
 from bayestissue.inference.likelihood import NOISE_MODELS, make_noise
 from bayestissue.inference.parameters import ParameterSet, paper_parameter_set
@@ -91,6 +92,12 @@ class CalibrationConfig:
         ``[["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]``: the prior is restricted to
         ``ginf2 >= ginf3`` (see :meth:`CalibrationProblem.log_prior`). Off by default (the paper's
         problem as stated).
+    tied : mapping name -> name: parameters that take another parameter's value instead of being
+        sampled, e.g. ``{"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}`` for two fibre
+        families with one law (the mirror-symmetric model). Off by default.
+    coordinates : the sampler's coordinate system (``[sampler] coordinates``): ``box`` (logit of the
+        scaled box per parameter) or ``creep`` (:mod:`bayestissue.inference.coordinates`; needs mu,
+        kappa, ginf2, gamma2, beta2 sampled).
     """
 
     prior: str = "default"
@@ -109,6 +116,8 @@ class CalibrationConfig:
     max_draws: int = 4000
     n_predictive: int = 400
     exchangeable: Sequence[Sequence[str]] | None = None
+    tied: Mapping = field(default_factory=dict)
+    coordinates: str = "box"
 
     def __post_init__(self):
         if self.noise not in NOISE_MODELS:
@@ -119,10 +128,10 @@ class CalibrationConfig:
 
 
 _SECTION_KEYS = {
-    "parameters": {"prior", "fixed", "sampled", "bounds", "priors", "initial", "exchangeable"},
+    "parameters": {"prior", "fixed", "sampled", "bounds", "priors", "initial", "exchangeable", "tied"},
     "likelihood": {"noise", "sd", "nu", "rho", "sd_bounds", "rho_bounds"},
     "warmstart": {"n_starts", "max_nfev"},
-    "sampler": {f.name for f in fields(SamplerOptions)} | {"seed", "sample"},
+    "sampler": {f.name for f in fields(SamplerOptions)} | {"seed", "sample", "coordinates"},
     "output": {"max_draws", "n_predictive"},
 }
 
@@ -149,7 +158,7 @@ def config_from_mapping(cfg: Mapping | None = None, **overrides) -> CalibrationC
     ws = cfg.get("warmstart", {})
     smp = dict(cfg.get("sampler", {}))
     out = cfg.get("output", {})
-    keys = ("prior", "fixed", "sampled", "bounds", "priors", "initial", "exchangeable")
+    keys = ("prior", "fixed", "sampled", "bounds", "priors", "initial", "exchangeable", "tied")
     kw = {k: par[k] for k in keys if k in par}
     if "noise" in lik:
         kw["noise"] = lik.pop("noise")
@@ -158,7 +167,7 @@ def config_from_mapping(cfg: Mapping | None = None, **overrides) -> CalibrationC
         kw["n_starts"] = ws["n_starts"]
     if "max_nfev" in ws:
         kw["ls_max_nfev"] = ws["max_nfev"]
-    for k in ("seed", "sample"):
+    for k in ("seed", "sample", "coordinates"):
         if k in smp:
             kw[k] = smp.pop(k)
     kw.update({k: out[k] for k in ("max_draws", "n_predictive") if k in out})
@@ -226,7 +235,7 @@ def build_problem(experiments: Sequence, config: CalibrationConfig) -> Calibrati
         if both:
             raise ValidationError("parameters", both, "each parameter either fixed or sampled, not both")
         for n in material.names:  # the rest are held at their initial values
-            if n not in sampled and n not in fixed_map:
+            if n not in sampled and n not in fixed_map and n not in config.tied:
                 fixed_map[n] = None
     material = material.updated(
         fixed=fixed_map,
@@ -234,6 +243,7 @@ def build_problem(experiments: Sequence, config: CalibrationConfig) -> Calibrati
         bounds=config.bounds,
         priors=config.priors,
         initial=config.initial,
+        tied=config.tied,
     )
     if material.n_sampled == 0:
         raise ValidationError("sampled parameters", [], "at least one sampled material parameter")
@@ -251,7 +261,7 @@ def build_problem(experiments: Sequence, config: CalibrationConfig) -> Calibrati
                 {"synthetic": bool(e.synthetic), "source": str(e.source or "")},
             )
         )
-    return CalibrationProblem(terms, material, exchangeable=config.exchangeable)
+    return CalibrationProblem(terms, material, exchangeable=config.exchangeable, coordinates=config.coordinates)
 
 
 @dataclass
@@ -319,6 +329,9 @@ def run_calibration(
         outcome.table = summary_table(problem, best, None, None, references=refs)
         _write(outcome, out_dir)
         return outcome
+    t0 = time.perf_counter()
+    problem.coordinates = adapt_coordinates(problem, problem.nuisance_estimate(best.x))
+    times["coordinates"] = time.perf_counter() - t0
     centers, covs = _ensemble_centres(problem, [paper_fit, *multi.results], best, config)
     ckpt = None if out_dir is None else Path(out_dir) / "checkpoints"
     t0 = time.perf_counter()

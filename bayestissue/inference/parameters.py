@@ -68,6 +68,9 @@ class ParameterSpec:
         Initial guess (sampled) or the held value (fixed); must lie in the box.
     fixed : bool
         Hold the parameter at ``value`` instead of sampling it.
+    tied_to : str or None
+        Name of another parameter of the same set whose value this one takes (neither sampled nor
+        held): e.g. ``ginf3`` tied to ``ginf2`` makes fibre families 2 and 3 share a parameter.
     """
 
     name: str
@@ -78,6 +81,7 @@ class ParameterSpec:
     scale: str | None = None
     value: float | None = None
     fixed: bool = False
+    tied_to: str | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -103,6 +107,11 @@ class ParameterSpec:
             object.__setattr__(self, "value", v)
         elif self.fixed:
             raise ValidationError(f"{self.name} value", None, "a value for a fixed parameter")
+        if self.tied_to is not None:
+            if self.fixed:
+                raise ValidationError(f"{self.name}", "fixed and tied", "either fixed or tied, not both")
+            if self.tied_to == self.name:
+                raise ValidationError(f"{self.name} tied_to", self.tied_to, "the name of another parameter")
 
     @property
     def prior_dist(self) -> BoxPrior:
@@ -131,6 +140,17 @@ class ParameterSet:
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValidationError("parameter names", names, "unique names", f"duplicated: {dup}")
+        by_name = {s.name: s for s in specs}
+        for s in specs:
+            if s.tied_to is None:
+                continue
+            target = by_name.get(s.tied_to)
+            if target is None or target.tied_to is not None:
+                raise ValidationError(
+                    f"{s.name} tied_to", s.tied_to, f"an untied parameter among {[n for n in names if n != s.name]}"
+                )
+            if target.unit != s.unit:
+                raise ValidationError(f"{s.name} tied_to", s.tied_to, f"a parameter in the same unit ({s.unit})")
         object.__setattr__(self, "specs", specs)
         object.__setattr__(self, "fixed_inputs", dict(self.fixed_inputs))
 
@@ -143,7 +163,7 @@ class ParameterSet:
 
     @cached_property
     def sampled(self) -> tuple[ParameterSpec, ...]:
-        return tuple(s for s in self.specs if not s.fixed)
+        return tuple(s for s in self.specs if not s.fixed and s.tied_to is None)
 
     @property
     def sampled_names(self) -> tuple[str, ...]:
@@ -152,6 +172,11 @@ class ParameterSet:
     @property
     def fixed_names(self) -> tuple[str, ...]:
         return tuple(s.name for s in self.specs if s.fixed)
+
+    @property
+    def tied(self) -> dict[str, str]:
+        """Tied parameters: name -> the name whose value it takes."""
+        return {s.name: s.tied_to for s in self.specs if s.tied_to is not None}
 
     @property
     def n_sampled(self) -> int:
@@ -211,8 +236,9 @@ class ParameterSet:
         priors: Mapping[str, str] | None = None,
         initial: Mapping[str, float] | None = None,
         fixed_inputs: Mapping | None = None,
+        tied: Mapping[str, str] | None = None,
     ) -> ParameterSet:
-        """Return a copy with some parameters fixed, freed, re-bounded, re-priored or
+        """Return a copy with some parameters fixed, freed, tied, re-bounded, re-priored or
         re-initialised.
 
         Parameters
@@ -223,12 +249,14 @@ class ParameterSet:
         priors : mapping name -> prior name.
         initial : mapping name -> initial value.
         fixed_inputs : entries merged into :attr:`fixed_inputs`.
+        tied : mapping name -> name of the parameter whose value it takes (see
+            :attr:`ParameterSpec.tied_to`).
 
         Raises
         ------
         ValidationError
-            For unknown names, a name both fixed and sampled, inverted bounds or a value outside the
-            box.
+            For unknown names, a name both fixed and sampled (or tied), inverted bounds or a value
+            outside the box.
         """
         known = set(self.names)
         fixed_map = dict(fixed) if isinstance(fixed, Mapping) else {n: None for n in (fixed or ())}
@@ -239,6 +267,8 @@ class ParameterSet:
             ("bounds", bounds or {}),
             ("priors", priors or {}),
             ("initial", initial or {}),
+            ("tied", tied or {}),
+            ("tied-to", list((tied or {}).values())),
         ):
             unknown = sorted(set(names) - known)
             if unknown:
@@ -246,6 +276,9 @@ class ParameterSet:
         both = sorted(set(fixed_map) & set(sampled))
         if both:
             raise ValidationError("parameters", both, "each parameter either fixed or sampled, not both")
+        both = sorted(set(tied or {}) & (set(fixed_map) | set(sampled)))
+        if both:
+            raise ValidationError("parameters", both, "each parameter either tied, fixed or sampled")
         new = []
         for s in self.specs:
             kw = {}
@@ -265,7 +298,9 @@ class ParameterSet:
                 if fixed_map[s.name] is not None:
                     kw["value"] = fixed_map[s.name]
             if s.name in sampled:
-                kw["fixed"] = False
+                kw.update(fixed=False, tied_to=None)
+            if s.name in (tied or {}):
+                kw.update(fixed=False, tied_to=tied[s.name])
             new.append(replace(s, **kw) if kw else s)
         inputs = dict(self.fixed_inputs)
         inputs.update(fixed_inputs or {})
@@ -288,9 +323,12 @@ class ParameterSet:
         for i, s in enumerate(self.specs):
             if s.fixed:
                 out[..., i] = s.value
-            else:
+            elif s.tied_to is None:
                 out[..., i] = theta[..., j]
                 j += 1
+        for i, s in enumerate(self.specs):
+            if s.tied_to is not None:
+                out[..., i] = out[..., self.names.index(s.tied_to)]
         return out
 
     @cached_property
@@ -336,14 +374,17 @@ class ParameterSet:
         """:math:`x = g^{-1}(g(a) + \\sigma(z) (g(b) - g(a)))`."""
         return self._from_unit(expit(self._check_theta(z)))
 
-    def log_abs_det_jacobian(self, z) -> np.ndarray:
-        """:math:`\\sum_i \\log|dx_i/dz_i|` at ``z``; shape ``z.shape[:-1]``."""
+    def log_abs_det_jacobian_terms(self, z) -> np.ndarray:
+        """:math:`\\log|dx_i/dz_i|` per parameter at ``z``; shape ``z.shape``."""
         z = self._check_theta(z)
         is_log, ga, gb = self._g()
         x = self.from_unconstrained(z)
         terms = log_expit(z) + log_expit(-z) + np.log(gb - ga)
-        terms = terms + np.where(is_log, np.log(np.where(is_log, x, 1.0)), 0.0)
-        return terms.sum(axis=-1)
+        return terms + np.where(is_log, np.log(np.where(is_log, x, 1.0)), 0.0)
+
+    def log_abs_det_jacobian(self, z) -> np.ndarray:
+        """:math:`\\sum_i \\log|dx_i/dz_i|` at ``z``; shape ``z.shape[:-1]``."""
+        return self.log_abs_det_jacobian_terms(z).sum(axis=-1)
 
     def log_prior(self, theta) -> np.ndarray:
         """Sum of the prior log-densities of the sampled parameters; ``-inf`` outside the box."""
@@ -377,6 +418,7 @@ class ParameterSet:
                 "scale": s.scale,
                 "value": math.nan if s.value is None else s.value,
                 "fixed": s.fixed,
+                "tied_to": s.tied_to or "",
             }
             for s in self.specs
         ]

@@ -77,10 +77,10 @@ def to_inference_data(
     zc = z.transpose(0, 2, 1, 3).reshape(n_ens * nw, n_d, ndim)
     lpzc = lpz.transpose(0, 2, 1).reshape(n_ens * nw, n_d)
     flat_z = zc.reshape(-1, ndim)
-    theta = pars.from_unconstrained(flat_z)
+    theta = problem.coordinates.from_unconstrained(flat_z)
     n_chain = n_ens * nw
     posterior = {name: theta[:, j].reshape(n_chain, n_d) for j, name in enumerate(problem.names)}
-    lp_nat = lpzc - pars.log_abs_det_jacobian(flat_z).reshape(n_chain, n_d)
+    lp_nat = lpzc - problem.coordinates.log_abs_det_jacobian(flat_z).reshape(n_chain, n_d)
     sample_stats = {"lp": lp_nat, "lp_unconstrained": lpzc}
     preds = problem.predict(theta)
     ll = problem.log_likelihood_pointwise(theta, predictions=preds)
@@ -149,6 +149,8 @@ def to_inference_data(
         "n_forward_evaluations": sample.n_evaluations,
         "sampling_time_s": float(sample.time_s),
         "ensemble_seeds": ",".join(str(s) for s in (sample.seeds or [])),
+        "sampler_coordinates": type(problem.coordinates).__name__,
+        "parameters_tied": ", ".join(f"{a}={b}" for a, b in problem.material.tied.items()) or "none",
         **text,
         **dict(attrs or {}),
     }

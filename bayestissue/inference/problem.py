@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayestissue._validation import ValidationError
+from bayestissue.inference.coordinates import make_coordinates
 from bayestissue.inference.likelihood import GaussianNoise, NoiseModel, _tag
 from bayestissue.inference.parameters import ParameterSet
 
@@ -101,6 +102,10 @@ class CalibrationProblem:
         One or several experiments (unique names).
     material : ParameterSet
         Material parameters (the forward models' inputs), sampled and fixed.
+    exchangeable : two parameter groups whose exchange leaves the likelihood unchanged (see
+        :meth:`log_prior`).
+    coordinates : the sampler's coordinate system, ``box`` or ``creep``
+        (:mod:`bayestissue.inference.coordinates`).
 
     Attributes
     ----------
@@ -117,6 +122,7 @@ class CalibrationProblem:
         material: ParameterSet,
         *,
         exchangeable: Sequence[Sequence[str]] | None = None,
+        coordinates: str = "box",
     ):
         experiments = tuple(experiments)
         if not experiments or not all(isinstance(e, ExperimentTerm) for e in experiments):
@@ -151,6 +157,8 @@ class CalibrationProblem:
             self.exchangeable = tuple(np.array([names.index(n) for n in g]) for g in groups)
         self.n_evaluations = 0
         self.n_failed = 0
+        #: the sampler's coordinate system (:mod:`bayestissue.inference.coordinates`)
+        self.coordinates = make_coordinates(coordinates, self)
 
     # ---- layout
     # ------------------------------------------------------------------------------------
@@ -285,8 +293,8 @@ class CalibrationProblem:
         """The sampler's target: :math:`\\log p(\\theta(z) \\mid y) + \\log|d\\theta/dz|`,
         ``(n_sets,)``."""
         z, single = self._batch(z)
-        theta = self.parameters.from_unconstrained(z)
-        out = self.log_posterior(theta) + self.parameters.log_abs_det_jacobian(z)
+        theta = self.coordinates.from_unconstrained(z)
+        out = self.log_posterior(theta) + self.coordinates.log_abs_det_jacobian(z)
         out[~np.isfinite(out)] = -np.inf
         return float(out[0]) if single else out
 

@@ -141,9 +141,10 @@ def initial_walkers(
     """Initial walker positions in the unconstrained space, ``(n_walkers, ndim)``.
 
     The centre :math:`\\hat\\theta` (natural units, clipped to :math:`u \\in [10^{-4}, 1 - 10^{-4}]`
-    so a parameter on its bound maps to a finite :math:`z`) is mapped to :math:`\\hat z`; the
-    material block of ``cov`` (natural units, e.g. the Gauss-Newton covariance) is mapped by the
-    transform's Jacobian :math:`D = \\mathrm{diag}(dz/d\\theta)`, :math:`\\Sigma_z = D \\Sigma D`,
+    so a parameter on its bound maps to a finite :math:`z`) is mapped to :math:`\\hat z` by the
+    problem's sampler coordinates; the material block of ``cov`` (natural units, e.g. the
+    Gauss-Newton covariance) is mapped by their Jacobian :math:`D = dz/d\\theta` (central
+    differences), :math:`\\Sigma_z = D \\Sigma D^T`,
     its eigenvalues clipped to ``[min_sd_z**2, max_sd_z**2]``; nuisance parameters get
     ``nuisance_sd_z``. Walkers with a non-finite log-posterior are redrawn; the set passes emcee's
     linear-independence check.
@@ -160,19 +161,23 @@ def initial_walkers(
         raise ValidationError("center", f"shape {center.shape}", f"shape ({problem.ndim},)")
     u = np.clip(pars.to_unit(center), 1e-4, 1 - 1e-4)
     theta_c = pars.from_unit(u)
-    z_c = np.log(u / (1 - u))
-    # dz/dtheta = 1 / (u (1-u) (g(b)-g(a)) [theta if log])
-    is_log = np.array([s.scale == "log" for s in pars.sampled])
-    lo, hi = pars.lower, pars.upper
-    span = np.where(is_log, np.log(hi / np.where(is_log, lo, 1.0)), hi - lo)
-    dzdx = 1.0 / (u * (1 - u) * span * np.where(is_log, theta_c, 1.0))
+    coords = problem.coordinates
+    z_c = coords.to_unconstrained(theta_c)
+    if not np.all(np.isfinite(z_c)):
+        raise ValidationError("center", theta_c, "a point the sampler coordinates can represent")
     cov_z = np.diag(np.full(problem.ndim, nuisance_sd_z**2))
     m = problem.n_material
     if cov is not None:
         cov = np.asarray(cov, dtype=float)
         if cov.shape != (m, m):
             raise ValidationError("cov", f"shape {cov.shape}", f"shape ({m}, {m}) (material block)")
-        block = dzdx[:m, None] * cov * dzdx[None, :m]
+        # dz/dtheta by central differences (relative step 1e-6; the maps are smooth inside the box)
+        h = 1e-6 * np.maximum(np.abs(theta_c), 1e-3 * (pars.upper - pars.lower))
+        steps = np.diag(h)
+        dzdx = (coords.to_unconstrained(theta_c + steps) - coords.to_unconstrained(theta_c - steps)).T / (2 * h)
+        full = np.zeros((problem.ndim, problem.ndim))
+        full[:m, :m] = cov
+        block = (dzdx @ full @ dzdx.T)[:m, :m]
         block = np.where(np.isfinite(block), block, 0.0)
         block = 0.5 * (block + block.T)
         w, v = np.linalg.eigh(block)
@@ -435,7 +440,7 @@ class PosteriorSample:
     def draws(self) -> np.ndarray:
         """Post-burn-in draws in natural units, ``(n_ensembles, n_draws, n_walkers, ndim)``."""
         z = self.kept_z()
-        return self.problem.parameters.from_unconstrained(z.reshape(-1, z.shape[-1])).reshape(z.shape)
+        return self.problem.coordinates.from_unconstrained(z.reshape(-1, z.shape[-1])).reshape(z.shape)
 
     def flat(self) -> np.ndarray:
         """All post-burn-in draws as ``(n, ndim)`` natural units."""

@@ -15,6 +15,7 @@ Configuration file (all sections and keys optional)::
     bounds = { mu = [0.001, 1000] }
     priors = { mu = "uniform" }
     initial = { mu = 10.0 }
+    tied = { ginf3 = "ginf2" }        # takes the other parameter's value (one law for two families)
 
     [likelihood]
     noise = "gaussian"                # "gaussian", "ar1", "student_t"

@@ -94,7 +94,7 @@ def plot_traces(sample, *, max_walkers: int = 8):
     axes = np.atleast_1d(axes).ravel()
     colors = plt.cm.tab10(np.arange(len(sample.ensembles)))
     for k, ens in enumerate(sample.ensembles):
-        x = problem.parameters.from_unconstrained(ens.chain_z.reshape(-1, ndim))
+        x = problem.coordinates.from_unconstrained(ens.chain_z.reshape(-1, ndim))
         x = x.reshape(ens.chain_z.shape)
         steps = np.arange(x.shape[0]) * ens.store_thin
         vals, labels = _display(problem, x, range(ndim))

@@ -150,3 +150,34 @@ def test_parameter_errors():
         pars.updated(initial={"mu": 5000.0})
     with pytest.raises(ValueError, match="theta: expected shape"):
         pars.expand(np.ones(3))
+
+
+def test_tied_parameters_take_the_value_of_their_target():
+    pars = paper_parameter_set().updated(tied={"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"})
+    assert pars.n_sampled == 8
+    assert pars.tied == {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}
+    theta = np.arange(1.0, 9.0)[None] / 10
+    full = pars.expand(theta)
+    names = pars.names
+    for a, b in pars.tied.items():
+        assert full[0, names.index(a)] == full[0, names.index(b)]
+    np.testing.assert_array_equal(full[0, : names.index("ginf3")], theta[0])
+    # tied to a fixed parameter: takes the held value
+    held = paper_parameter_set().updated(fixed={"ginf2": 7.0}, tied={"ginf3": "ginf2"})
+    assert held.expand(np.ones((1, held.n_sampled)))[0, names.index("ginf3")] == 7.0
+
+
+def test_tied_parameter_errors():
+    pars = paper_parameter_set()
+    with pytest.raises(ValueError, match=r"tied parameter names: expected names among"):
+        pars.updated(tied={"ginf9": "ginf2"})
+    with pytest.raises(ValueError, match=r"tied-to parameter names: expected names among"):
+        pars.updated(tied={"ginf3": "ginf9"})
+    with pytest.raises(ValueError, match="parameters: expected each parameter either tied, fixed or sampled"):
+        pars.updated(tied={"ginf3": "ginf2"}, fixed=["ginf3"])
+    with pytest.raises(ValueError, match=r"ginf3 tied_to: expected a parameter in the same unit \(kPa\)"):
+        pars.updated(tied={"ginf3": "gamma2"})
+    with pytest.raises(ValueError, match="ginf3 tied_to: expected an untied parameter"):
+        pars.updated(tied={"ginf3": "ginf2", "ginf2": "mu"})
+    with pytest.raises(ValueError, match="mu tied_to: expected the name of another parameter"):
+        ParameterSpec("mu", "kPa", 1.0, 10.0, tied_to="mu")
