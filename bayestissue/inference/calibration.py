@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from bayestissue._validation import ValidationError
-from bayestissue.inference.coordinates import adapt_coordinates
+from bayestissue.inference.coordinates import COORDINATES, adapt_coordinates
 from bayestissue.inference.diagnostics import ConvergenceReport, assess_convergence
 from bayestissue.inference.likelihood import NOISE_MODELS, make_noise
 from bayestissue.inference.parameters import ParameterSet, paper_parameter_set
@@ -123,6 +123,8 @@ class CalibrationConfig:
         if self.noise not in NOISE_MODELS:
             raise ValidationError("likelihood.noise", self.noise, f"one of {sorted(NOISE_MODELS)}")
         make_noise(self.noise, **dict(self.noise_options))  # validates the options
+        if self.coordinates not in COORDINATES:
+            raise ValidationError("sampler.coordinates", self.coordinates, f"one of {list(COORDINATES)}")
         if not (isinstance(self.n_starts, int) and self.n_starts >= 0):
             raise ValidationError("warmstart.n_starts", self.n_starts, "an integer >= 0")
 

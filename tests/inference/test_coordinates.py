@@ -143,3 +143,10 @@ def test_shear_round_trips_and_keeps_the_log_jacobian():
         assert coords.log_abs_det_jacobian(zi[None])[0] == pytest.approx(np.linalg.slogdet(jac)[1], abs=1e-5)
     with pytest.raises(ValueError, match="shear offsets: expected finite values of shape"):
         ShearedCoordinates(base, s[0], s[1:], grid, offsets[:, :2])
+
+
+def test_config_rejects_unknown_coordinates():
+    from bayestissue.inference.calibration import config_from_mapping
+
+    with pytest.raises(ValueError, match="sampler.coordinates: expected one of \\['box', 'creep'\\], got 'polar'"):
+        config_from_mapping({"sampler": {"coordinates": "polar"}})
