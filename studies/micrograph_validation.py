@@ -7,6 +7,9 @@ CE, L_V, three directions) -> bootstrap replicates, each compared with the truth
 Two phantoms: the default one (SMC 58.9 % of tissue, which random packing of 72 x 6 um spindles
 only reaches with up to 25 % interpenetration, so that touching cells merge) and a "separable"
 one (SMC 42 %, 1 um gaps and seams between touching cells) on which tracing is checked alone.
+Both are repeated over further seeds (pipeline + a single Watson-mixture fit, no bootstrap), and
+the L_V error is split into its parts: tracing the true section planes (no rendering, registration
+or segmentation) and the grazing loss of one isolated in-plane cell traced from 5 um planes.
 
 Writes figures/micrographs_validation.png, figures/micrographs_overlay.png and
 figures/micrographs_validation.md.
@@ -25,22 +28,23 @@ import numpy as np
 
 from bayestissue.cli.micrographs import analyse_micrographs
 from bayestissue.plotting.micrographs import plot_overlay
-from bayestissue.stereology.axial import axial_angle
+from bayestissue.stereology.axial import axial_angle, fit_watson_mixture
 from bayestissue.stereology.gridcount import count_points
-from bayestissue.stereology.phantom import PhantomOptions, make_phantom
+from bayestissue.stereology.phantom import SMC, PhantomOptions, _ellipsoid_voxels, make_phantom
 from bayestissue.stereology.registration import displacement_error_px
 from bayestissue.stereology.render import render_sections, section_phantom, stack_frame
 from bayestissue.stereology.replicates import direction_bootstrap, fraction_replicates
 from bayestissue.stereology.rose import lambert_project
 from bayestissue.stereology.sections import surs_indices
 from bayestissue.stereology.segmentation import confusion_matrix, label_fractions
+from bayestissue.stereology.tracing import trace_cells
 from bayestissue.stereology.uncertainty import align_axes
 
 FIG = Path(__file__).resolve().parents[1] / "figures"
-SIZES = {  # extent (z, y, x) um at 1 um voxels, bootstrap size, SURS repeats
-    "quick": ((30.0, 70.0, 70.0), 50, 20),
-    "default": ((80.0, 120.0, 120.0), 300, 200),
-    "full": ((160.0, 200.0, 200.0), 1000, 500),
+SIZES = {  # extent (z, y, x) um at 1 um voxels, bootstrap size, SURS repeats, seeds per phantom
+    "quick": ((30.0, 70.0, 70.0), 50, 20, 1),
+    "default": ((80.0, 120.0, 120.0), 300, 200, 3),
+    "full": ((160.0, 200.0, 200.0), 1000, 500, 8),
 }
 
 
@@ -119,13 +123,67 @@ def run_chain(options, *, seed, n_boot, n_surs, period=2, grid_um=8.0):
     out["lv_boot"] = _lv_bootstrap(res.traced, n_boot, rng)
     lines = res.line_system()
     t0 = time.perf_counter()
-    out["dirs"] = direction_bootstrap(lines, method="watson", n_boot=min(n_boot, 200), rng=rng)
+    out["dirs"] = direction_bootstrap(lines, method="watson", n_boot=min(n_boot, 50), rng=rng)
     t["directions_s"] = time.perf_counter() - t0
     true_axes = np.array([stack_frame("z") @ np.asarray(a) for a in options.axes])
     al, _ = align_axes(out["dirs"]["axes"], true_axes)
     out["true_axes"] = true_axes
     out["dir_err_deg"] = axial_angle(al, true_axes)
     return out
+
+
+def seed_row(options, *, seed, grid_um=8.0, chain=None):
+    """Pipeline on one seed (or the outputs of :func:`run_chain`): registration, V_V, L_V (also
+    traced on the true planes, with and without the profile cores) and the direction errors of
+    one Watson-mixture fit (no bootstrap)."""
+    if chain is None:
+        phantom = make_phantom(options, rng=seed)
+        stack = render_sections(phantom, thickness_um=5.0, axis="z", rng=seed)
+        res = analyse_micrographs(stack.images, pixel_um=1.0, thickness_um=5.0,
+                                  grid_spacing_um=grid_um, rng=seed)  # fmt: skip
+    else:
+        phantom, stack, res = chain["phantom"], chain["stack"], chain["res"]
+    reg = res.registered
+    err = displacement_error_px(reg.transforms, stack.transforms, stack.images.shape[1:3], mask=reg.valid)
+    vf, lv = _truth_in_field(phantom, stack, reg.valid)
+    planes, _ = section_phantom(phantom, thickness_um=5.0)
+    m = stack.margin_px
+    ref = planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]] == SMC
+    on_truth = trace_cells(ref, spacing_um=(5.0, 1.0, 1.0), valid=reg.valid, rng=seed)
+    on_truth0 = trace_cells(ref, spacing_um=(5.0, 1.0, 1.0), valid=reg.valid, rng=seed, core_px=0)
+    tr = res.traced
+    mix = fit_watson_mixture(tr.directions, 3, weights=tr.lengths_um, rng=0)
+    true_axes = np.array([stack_frame("z") @ np.asarray(a) for a in options.axes])
+    al, _ = align_axes(mix.axes, true_axes)
+    return {
+        "seed": seed,
+        "reg_max_px": float(err.max()),
+        "vv_err": res.point_counts().summary()["smc"]["V_V"] - vf["smc_tissue"],
+        "lv_err_pct": 100 * (tr.length_density() / lv - 1),
+        "lv_true_planes_err_pct": 100 * (on_truth.length_density() / lv - 1),
+        "lv_true_planes0_err_pct": 100 * (on_truth0.length_density() / lv - 1),
+        "dir_err_deg": axial_angle(al, true_axes),
+    }
+
+
+def grazing_loss(*, thickness_um=5.0, n_offsets=20, core_px=0):
+    """Traced length / true length of one isolated in-plane cell (72 x 6 um spindle, 1 um voxels)
+    cut by planes every ``thickness_um``, averaged over the plane offset; and the spindle model's
+    value 2 a E[s], :math:`s = \\sqrt{1 - h^2/b^2}`, h ~ U[0, T/2] the axis' distance to the
+    nearest plane (the profile of a grazed spindle is shortened by s)."""
+    a, b = 36.0, 3.0
+    shape = (50, 20, 90)
+    ratios = []
+    for h in np.arange(n_offsets) * thickness_um / n_offsets:
+        vol = np.zeros(shape, bool)
+        vol[_ellipsoid_voxels(np.array([45.0, 10.0, 20.0 + h]), np.array([1.0, 0, 0]), a, b, shape, 1.0)] = True
+        planes = np.floor((np.arange(int(shape[0] // thickness_um)) + 0.5) * thickness_um).astype(int)
+        tc = trace_cells(vol[planes], spacing_um=(thickness_um, 1.0, 1.0), piece_length_um=200.0,
+                         core_px=core_px)  # fmt: skip
+        ratios.append(tc.lengths_um.sum() / (2 * a))
+    u = np.linspace(0, min(thickness_um / 2, b), 2001)
+    model = float(np.mean(np.sqrt(1 - (u / b) ** 2)))
+    return float(np.mean(ratios)), model
 
 
 def _figure(main, sep):
@@ -217,7 +275,14 @@ def _figure(main, sep):
     return fig
 
 
-def _md(main, sep, args, elapsed):
+def _ranges(seed_rows, key):
+    """'name [min, max]' of a seed-table column, per phantom."""
+    return ", ".join(
+        f"{name} [{min(r[key] for r in rs):+.1f}, {max(r[key] for r in rs):+.1f}]" for name, rs in seed_rows.items()
+    )
+
+
+def _md(main, sep, args, elapsed, seed_rows, graze):
     L = ["# Micrograph pipeline on a synthetic histology phantom (synthetic data)", ""]
     L.append(f"Run: `python studies/micrograph_validation.py {' '.join(args)}`; {elapsed:.0f} s.")
     for name, r in (("default", main), ("separable", sep)):
@@ -279,6 +344,60 @@ def _md(main, sep, args, elapsed):
             + " deg; shares "
             + ", ".join(f"{x:.2f}" for x in d["shares"])
         )
+    L += ["", "## Over seeds (pipeline; directions from one Watson-mixture fit, no bootstrap)", ""]
+    L.append("| phantom | seed | registration max (px) | V_V error | L_V error (%) | L_V error, true planes "
+             "(%) | L_V error, true planes, core_px=0 (%) | direction errors (deg) |")  # fmt: skip
+    L.append("|---|---|---|---|---|---|---|---|")
+    for name, rs in seed_rows.items():
+        for r in rs:
+            L.append(
+                f"| {name} | {r['seed']} | {r['reg_max_px']:.2f} | {r['vv_err']:+.3f} | "
+                f"{r['lv_err_pct']:+.1f} | {r['lv_true_planes_err_pct']:+.1f} | "
+                f"{r['lv_true_planes0_err_pct']:+.1f} | " + ", ".join(f"{x:.1f}" for x in r["dir_err_deg"]) + " |"
+            )
+    n_ok = {k: sum(bool(np.all(r["dir_err_deg"] < 10)) for r in v) for k, v in seed_rows.items()}
+    lv_ok = {k: sum(abs(r["lv_err_pct"]) < 15 for r in v) for k, v in seed_rows.items()}
+    L += [
+        "",
+        "Seeds with all three directions within 10 deg: "
+        + ", ".join(f"{k} {n_ok[k]}/{len(seed_rows[k])}" for k in seed_rows)
+        + "; with L_V within 15 %: "
+        + ", ".join(f"{k} {lv_ok[k]}/{len(seed_rows[k])}" for k in seed_rows)
+        + ".",
+        "",
+        "## Why L_V is not met",
+        "",
+        f"- Grazing loss (no image processing): one isolated in-plane cell (72 x 6 um) traced from "
+        f"5 um planes, averaged over the plane offset, gives {100 * graze[0]:.1f} % of its length "
+        f"traced on the full profiles (core_px=0) and {100 * graze[2]:.1f} % on the profile cores "
+        f"(core_px=1, the pipeline's default: thin grazed profiles lose more to the erosion); the "
+        f"spindle model 2 a E[s] gives {100 * graze[1]:.1f} %. A spindle lying in the section plane is "
+        "seen only where a plane cuts it, and a plane at distance h from its axis shows a profile "
+        "shortened by s = sqrt(1 - h^2 / b^2): with the plane spacing (5 um) close to the cell "
+        "diameter (6 um) this bias alone uses most of the 15 % allowed.",
+        "- Tracing the true section planes (perfect registration and segmentation) with the same "
+        "tracer: L_V error " + _ranges(seed_rows, "lv_true_planes_err_pct") + " %; without the profile "
+        "cores (core_px=0) "
+        + _ranges(seed_rows, "lv_true_planes0_err_pct")
+        + " %; the pipeline: "
+        + _ranges(seed_rows, "lv_err_pct")
+        + " %. On the separable phantom the true planes traced without cores come within the "
+        "grazing loss; the loss in the pipeline comes from the 1-voxel seams between touching "
+        "cells, which the blur (0.8 px) closes: without cores the segmentation's merged cells make "
+        "L_V erratic, with cores the erosion removes the seam-thinned profiles (seeds 1-3, measured "
+        "while preparing this report: blur 0 and core_px=0 -14, -1, -9 %; blur 0.8 and core_px=0 "
+        "-26, -16, -1 %; blur 0.8 and core_px=1, the pipeline, -19, -20, -25 %; blur 0 and "
+        "core_px=1 -28, -28, -29 %). On the default phantom the cells interpenetrate (random packing "
+        "reaches 58.9 % only with up to 25 % overlap): overlapping cells are one object in the truth "
+        "as well, and even the true planes are traced with errors that spread widely between seeds.",
+        "- Correcting the grazing loss per cell needs the cell radius to about 10 % (L_V ~ 1/s, "
+        "s from the profile width); at 1 um pixels and 3 um radii, with merged profiles, it was "
+        "not measurable (a width-based correction gave -25 % to +17 % for width quantiles 0.5 to 0.9, seeds 1-4). "
+        "Packing aligned spindles in bundles (a staggered lattice per bundle) reached at most "
+        "0.586 of the tissue in one unbounded bundle at 1 um voxels and 0.20 to 0.45 with "
+        "bundle borders and sinuses, short of 58.9 % without overlap (measured while preparing "
+        "this report; not in the package).",
+    ]
     L += ["", "![validation](micrographs_validation.png)", "",
           "![overlay](micrographs_overlay.png)", ""]  # fmt: skip
     return "\n".join(L)
@@ -294,13 +413,18 @@ def main(argv=None):
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     size = "quick" if args.quick else "full" if args.full else "default"
-    extent, n_boot, n_surs = SIZES[size]
-    main_run = run_chain(PhantomOptions(extent_um=extent), seed=args.seed, n_boot=n_boot,
-                         n_surs=n_surs)  # fmt: skip
+    extent, n_boot, n_surs, n_seeds = SIZES[size]
+    main_opts = PhantomOptions(extent_um=extent)
+    main_run = run_chain(main_opts, seed=args.seed, n_boot=n_boot, n_surs=n_surs)
     sep = None
+    sep_opts = PhantomOptions(extent_um=extent, smc_fraction=0.42, gap_um=1.0, seams=True)
     if not args.no_separable:
-        sep_opts = PhantomOptions(extent_um=extent, smc_fraction=0.42, gap_um=1.0, seams=True)
         sep = run_chain(sep_opts, seed=args.seed, n_boot=n_boot, n_surs=n_surs)
+    seeds = range(args.seed, args.seed + n_seeds)
+    rows = {"default": [seed_row(main_opts, seed=k, chain=main_run if k == args.seed else None) for k in seeds]}
+    if not args.no_separable:
+        rows["separable"] = [seed_row(sep_opts, seed=k, chain=sep if k == args.seed else None) for k in seeds]
+    graze = grazing_loss(core_px=0) + grazing_loss(core_px=1)[:1]
     FIG.mkdir(exist_ok=True)
     fig = _figure(main_run, sep)
     fig.savefig(FIG / "micrographs_validation.png", dpi=110)
@@ -314,7 +438,7 @@ def main(argv=None):
     )  # fmt: skip
     fig.savefig(FIG / "micrographs_overlay.png", dpi=110)
     elapsed = time.perf_counter() - t0
-    md = _md(main_run, sep, argv if argv is not None else [], elapsed)
+    md = _md(main_run, sep, argv if argv is not None else [], elapsed, rows, graze)
     (FIG / "micrographs_validation.md").write_text(md)
     print(md)
     print(f"micrograph_validation ({size}) took {elapsed:.1f} s")

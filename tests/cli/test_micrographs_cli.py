@@ -133,7 +133,11 @@ def test_chain_registration_and_volume_fractions(chain):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="known: +19 % on this seed (merged cells, measured area)")
+@pytest.mark.xfail(
+    strict=True,
+    reason="known: -33 % on this seed (the phantom's merged cells, cells merged by the blur, and the "
+    "grazing loss of in-plane cells; figures/micrographs_validation.md)",
+)
 def test_chain_length_density_within_15_percent(chain):
     p, s, res = chain
     _, lv = _field_truth(p, s, res.registered.valid)
