@@ -17,9 +17,9 @@ dataclasses by their fields). The client writes each result to ``<cache_dir>/<ke
   scheduler (up to ``distributed.scheduler.allowed-failures`` times); finished results already on
   disk are never lost.
 
-Results are written by the client, so a remote cluster does not need a shared file system. Change
-the function's code? Bump ``salt`` (or clear the cache dir): the key hashes the function's name, not
-its body.
+Results are written by the client, so a remote cluster does not need a shared file system. The key
+hashes the function's name, not its body: pass a ``salt`` that changes with the code (the studies use
+a hash of the package's source, ``studies/identifiability.py: code_salt``) or clear the cache dir.
 
 See ``docs/cluster.md`` for pointing the fan-out at a real cluster.
 """

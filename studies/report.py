@@ -89,13 +89,16 @@ def main(argv=None) -> int:
         "(a singular value above 1 pins a combination of log-parameters to better than a factor e) and "
         "Brun et al. (2001) collinearity indices of all 2036 parameter subsets (critical value 10).\n"
     )
+    ref = A["profile_reference"]
+    w(
+        "All local and profile analyses are at the *best* least-squares optimum found: the calibration's "
+        "multi-start optimum, improved where a profile found a lower chi2 (see the profile section).\n"
+    )
     w("| | T1 | T2 | joint |\n|---|---|---|---|")
     sv = {lab: A["local"][lab]["singular_values"] for lab in labs}
     w(
-        "| chi2 at the optimum (n data) | "
-        + " | ".join(
-            f"{num(A['calibration'][lab]['ls_chi2'], '.1f')} ({A['calibration'][lab]['n_obs']})" for lab in labs
-        )
+        "| chi2 at the best optimum (n data) | "
+        + " | ".join(f"{num(ref[lab]['chi2_final'], '.1f')} ({A['calibration'][lab]['n_obs']})" for lab in labs)
         + " |"
     )
     w("| singular values | " + " | ".join(", ".join(num(s, ".2g") for s in sv[lab]) for lab in labs) + " |")
@@ -136,6 +139,71 @@ def main(argv=None) -> int:
 
     w("### Profile likelihoods (Raue et al. 2009, threshold 3.84)\n")
     prof = {lab: {p["name"]: p for p in A["profiles"][lab]} for lab in labs}
+    tol = ref["T1"]["improvement_tol"]
+    w(
+        "A profile is measured from the global optimum: a profile point below it would be a better fit the "
+        "least-squares optimiser had missed. Rule (`bayestissue.identifiability.profile_all`): if any profile "
+        f"point lies more than {num(tol, 'g')} below the reference chi2 (= -2 log L up to a constant; "
+        f"{num(tol, 'g')} is 1/3800 of the 3.84 threshold, so smaller dips cannot move a CI or a "
+        "classification noticeably), all 11 parameters are re-optimised from the lowest such point (TRF least "
+        "squares, as the paper), that optimum becomes the reference and every profile of the test is "
+        f"recomputed; repeated until no profile improves (cap {ref['T1']['max_restarts']} restarts).\n"
+    )
+    w(
+        "| | chi2 calibration LS | chi2 polished start | chi2 final | restarts | improvement per restart "
+        "(from profile of) | converged |"
+    )
+    w("|---|---|---|---|---|---|---|")
+    for lab in labs:
+        r = ref[lab]
+        imp = ", ".join(f"{num(d, '.3f')} ({src})" for d, src in zip(r["improvements"], r["restart_from"], strict=True))
+        w(
+            f"| {lab} | {num(r['chi2_calibration'], '.3f')} | {num(r['chi2_polished'], '.3f')} | "
+            f"{num(r['chi2_final'], '.3f')} | {r['n_restarts']} | {imp or '-'} | "
+            f"{'yes' if r['converged'] else 'NO (cap reached)'} |"
+        )
+    w("")
+    for lab in labs:
+        r = ref[lab]
+        if not r["n_restarts"]:
+            continue
+        x0, x1 = np.asarray(r["theta_calibration"], float), np.asarray(r["theta_final"], float)
+        moved = [
+            f"{n} {num(a)} -> {num(b)}"
+            for n, a, b in zip(names, x0, x1, strict=True)
+            if abs(np.log10(b / a)) > np.log10(2)
+        ]
+        c = A["calibration"][lab]
+        outside = [n for j, n in enumerate(names) if not fl(c["q05"][j]) <= x1[j] <= fl(c["q95"][j])]
+        w(
+            f"- {lab}: chi2 lower by {num(r['chi2_calibration'] - r['chi2_final'], '.3f')} (likelihood ratio "
+            f"{num(np.exp((r['chi2_calibration'] - r['chi2_final']) / 2), '.3g')}); parameters that moved by more "
+            f"than a factor 2: {'; '.join(moved) or 'none'}. Best optimum outside the posterior's 90 % interval "
+            f"for: {', '.join(outside) or 'none'}"
+            + (
+                f". The improvement exceeds the 1-df threshold 3.84 (though not chi2_11(0.95) = 19.7): the {lab} "
+                "chains, started at the calibration optimum, never reached the best optimum (posterior kappa "
+                f"{num(c['q05'][1])}-{num(c['q95'][1])} at 90 %, best optimum {num(x1[1])}), so the {lab} posterior "
+                f"below describes one mode and misses one whose peak likelihood is "
+                f"{num(np.exp((r['chi2_calibration'] - r['chi2_final']) / 2), '.3g')} times higher."
+                if r["chi2_calibration"] - r["chi2_final"] > 3.84
+                else " (improvement below the 1-df threshold 3.84; the moves are along flat directions or onto bounds)."
+            )
+        )
+    w("")
+    changed = [
+        f"{lab} {n}: {short(c0)} -> {short(prof[lab][n]['classification'])}"
+        for lab in labs
+        for n, c0 in ref[lab].get("first_classifications", {}).items()
+        if n in prof[lab] and c0 != prof[lab][n]["classification"]
+    ]
+    w(
+        "Classifications that the restarts changed (first round, relative to the polished start -> final): "
+        + ("; ".join(changed) if changed else "none")
+        + ". Every profile below has min delta chi2 >= "
+        + num(min(fl(p["min_delta"]) for lab in labs for p in A["profiles"][lab]), ".2g")
+        + ".\n"
+    )
     post = A["posterior"]
     w(
         "| parameter | T1 profile (95 % CI) | T2 profile | joint profile | contraction T1 / T2 / joint | "
@@ -183,22 +251,44 @@ def main(argv=None) -> int:
     w("![KL](identifiability_kl.png)\n")
 
     w("### Built-in sanity check: fibre family 1 is compressed and must stay uninformed\n")
+    c0 = A["fibre1_check"][labs[0]]
+    w(
+        "Rule, fixed before looking at the numbers (`bayestissue.identifiability.uninformed_mc`): the draws, in "
+        f"sampling order, are cut into B = {c0['n_batches']} contiguous batches; batch means give the Monte "
+        "Carlo standard error se and a first-order bias of contraction c and KL (the bias of the plug-in KL, "
+        "(n_bins - 1)/(2 n_eff), is removed this way). A parameter passes if |c_corrected| <= t se(c) and "
+        f"KL_corrected <= t se(KL) with t = t_(B-1)(0.995) = {num(c0['t'], '.2f')} (two-sided 99 %), i.e. the "
+        "draws cannot tell its marginal from the prior. The old fixed thresholds (|c| < 0.3, KL < 0.1) were "
+        "chosen after seeing the results and are dropped.\n"
+    )
+    w(
+        "| test | parameter | sensitivity at the best LS optimum (Brun delta_msqr) | contraction (tolerance) | "
+        "KL nats (tolerance) | |"
+    )
+    w("|---|---|---|---|---|---|")
+    for lab in labs:
+        c = A["fibre1_check"][lab]
+        for k, n in enumerate(("ginf1", "gamma1", "beta1")):
+            w(
+                f"| {lab} | {n} | {num(c['sensitivity'][k], '.1e')} | {num(c['contraction_corrected'][k], '+.3f')} "
+                f"(+-{num(c['tol_contraction'][k], '.3f')}) | {num(c['kl_corrected'][k], '.3f')} "
+                f"(<= {num(c['tol_kl'][k], '.3f')}) | {'pass' if c['uninformed'][k] else '**fail**'} |"
+            )
+    w("")
     for lab in labs:
         c = A["fibre1_check"][lab]
         w(
-            f"- {lab}: sensitivity (Brun delta_msqr) of ginf1, gamma1, beta1 = "
-            f"{', '.join(num(x, '.1e') for x in c['sensitivity'])}; contraction "
-            f"{', '.join(num(x, '.2f') for x in c['contraction'])}; KL {', '.join(num(x, '.2f') for x in c['kl'])}"
-            f" -> **{'PASS' if c['uninformed'] else 'FAIL'}** (posterior = prior within |contraction| < 0.3, "
-            "KL < 0.1 nats; the contraction of a flat marginal from ~1500 autocorrelated draws carries a Monte "
-            "Carlo error of about 0.1-0.2, the KL estimate less)."
+            f"- {lab} ({c['n_draws']} draws): **{'PASS' if c['pass'] else 'FAIL'}**; fibre 1 carries tension in "
+            f"the calibrated test(s) for {num(100 * c['share_draws_fibre1_tension'], '.1f')} % of 200 posterior "
+            "draws"
         )
     w("")
     ft = A.get("fibre1_tension", {})
     if ft:
         w(
             "Why the check can fail for physical reasons: fibre 1 is only *mostly* compressed. Largest lateral "
-            "strain E22 and fibre-1 tension along each test at each least-squares optimum:\n"
+            "strain E22 and fibre-1 tension along each test at each best least-squares optimum (after the "
+            "profile restarts):\n"
         )
         for lab in labs:
             w(
@@ -210,10 +300,34 @@ def main(argv=None) -> int:
             )
         w(
             "\nWhere E22 > 0 (families 2 and 3 scissor towards x under the ramp and stretch the specimen "
-            "laterally), fibre 1 carries load and ginf1 becomes (weakly) informed; elsewhere its sensitivity is "
-            "exactly zero and any contraction or KL away from 0 is Monte Carlo error of short chains (walkers "
-            "start near the least-squares point and have not spread over the flat directions).\n"
+            "laterally), fibre 1 carries load and its parameters can be informed: a physical FAIL, the "
+            "assumption 'fibre 1 is compressed' is then only approximately true. Where fibre 1 carries no "
+            "tension in any posterior draw the likelihood does not depend on its parameters there, so a FAIL "
+            "is a sampling failure, not information: the chains have not filled a flat direction (walkers "
+            "start near the least-squares point), and batch means, which see only the spread within these "
+            "chains, cannot reveal that. (The local sensitivity in the table is at the best least-squares "
+            "optimum, which for T1 lies in a different mode from the posterior draws, see the profile "
+            "section.)\n"
         )
+        for lab in labs:
+            c = A["fibre1_check"][lab]
+            bad = [n for k, n in enumerate(("ginf1", "gamma1", "beta1")) if not c["uninformed"][k]]
+            if not bad:
+                continue
+            if c["share_draws_fibre1_tension"] > 0:
+                why = (
+                    "physical: fibre 1 is stretched (E22 > 0) in "
+                    f"{num(100 * c['share_draws_fibre1_tension'], '.1f')} % of the posterior draws, so the "
+                    "likelihood does depend on its parameters"
+                )
+            else:
+                why = (
+                    "a sampling failure: fibre 1 is compressed in every checked posterior draw, the likelihood is "
+                    "exactly flat in its parameters there, and the deviation from the prior is the chains not "
+                    "having filled the flat direction (default chains: 700 steps x 2 ensembles; `--full`: 6000 x 4)"
+                )
+            w(f"- {lab} fails on {', '.join(bad)}: {why}.")
+        w("")
     w("Posterior mass piled against a bound (more than 5 % of the draws in the outer 2 % of the box):\n")
     for lab in labs:
         lo = [n for n, f in zip(names, post[lab]["at_lower"], strict=True) if f]
@@ -312,9 +426,9 @@ def main(argv=None) -> int:
     )
     w(
         "| rate factor f | ramp time (s) | sd log gamma2 | sd log beta2 | sd log gamma3 | sd log beta3 | "
-        "beta2 profile (95 % CI, 1/s) | beta3 profile (95 % CI, 1/s) |"
+        "beta2 profile (95 % CI, 1/s) | beta3 profile (95 % CI, 1/s) | optimum restarts (improvements) |"
     )
-    w("|---|---|---|---|---|---|---|---|")
+    w("|---|---|---|---|---|---|---|---|---|")
     ident_rates, open_fast = [], []
     for i, f in enumerate(R["factors"]):
         pr = R["profiles"].get(str(float(f))) or R["profiles"].get(str(f)) or {}
@@ -333,8 +447,20 @@ def main(argv=None) -> int:
 
         w(
             f"| {num(f, 'g')} | {num(612 / f, '.0f')} | " + " | ".join(cells) + f" | {short(b2) or '-'}"
-            f"{ci('ci_beta2')} | {short(b3) or '-'}{ci('ci_beta3')} |"
+            f"{ci('ci_beta2')} | {short(b3) or '-'}{ci('ci_beta3')} | "
+            + (
+                f"{pr['n_restarts']} ({', '.join(num(d, '.3g') for d in pr['improvements']) or '-'})"
+                + ("" if pr.get("converged", True) else " **cap reached**")
+                if "n_restarts" in pr
+                else "-"
+            )
+            + " |"
         )
+    w(
+        "\nProfiles relative to the best optimum of each simulated data set (restart rule of section 1; the "
+        "improvements are in chi2). Where the cap was reached a profile still found a lower chi2 in the last "
+        "round, so that row's intervals are relative to the best optimum found, not a verified global one.\n"
+    )
     se_b = np.array([min(fl(R["se_log"]["beta2"][i]), fl(R["se_log"]["beta3"][i])) for i in range(len(R["factors"]))])
     f_best = R["factors"][int(np.nanargmin(se_b))]
     p1 = R["profiles"].get("1.0", {})
@@ -471,13 +597,16 @@ def main(argv=None) -> int:
     w("## 4. Deterministic result against the posteriors\n")
     w(
         "Paper Table 1, our least-squares optima (paper's method, multi-start incl. the Table 1 values as "
-        "starts) and posterior medians with 90 % intervals. Flags: **B** bound active at the LS optimum or "
+        "starts, then improved by the profile restarts: the best optimum found) and posterior medians with "
+        "90 % intervals. Flags: **B** bound active at the LS optimum or "
         "posterior piled at a bound; **F** profile not closed (practically or structurally non-identifiable); "
         "**S** skewed posterior (|skewness| > 1 in the scaled box); **M** possibly multimodal "
         "(bimodality coefficient (skew^2 + 1)/kurtosis > 0.555).\n"
     )
     for lab in ("T1", "T2"):
-        c = A["calibration"][lab]
+        c = dict(A["calibration"][lab])
+        c["ls_x"] = A["profile_reference"][lab]["theta_final"]
+        c["ls_active"] = A["profile_reference"][lab]["at_bound_final"]
         w(f"#### {lab}\n")
         w("| parameter | paper | least squares | posterior median [90 %] | flags |")
         w("|---|---|---|---|---|")
@@ -563,8 +692,10 @@ def main(argv=None) -> int:
     )
     w("- The cut posterior per replicate uses short warm-started chains; widths are indicative.")
     w(
-        "- Profiles are computed from the best least-squares optimum found; a profile point below it "
-        "(`improved`) means the optimiser had not found the global minimum."
+        "- Profiles are relative to the best optimum found (multi-start least squares, then restarts from any "
+        "profile point that improved on it by more than 1e-3): a global optimum is still not guaranteed, only "
+        "that no profile found a better one. The content-hash cache keys include a hash of the package source "
+        f"(`{A.get('cache_salt', '?')}`), so results of older code are never reused."
     )
     w("- The Gaussian noise model with known sd (0.02 mm, from the synthetic data files) is assumed throughout.")
     w("")

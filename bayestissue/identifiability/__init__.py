@@ -14,6 +14,7 @@ from bayestissue.identifiability.compare import (
     tension,
 )
 from bayestissue.identifiability.posterior import (
+    batch_means,
     bhattacharyya,
     bound_flags,
     contraction,
@@ -21,13 +22,16 @@ from bayestissue.identifiability.posterior import (
     kl_divergence,
     principal_angles,
     uninformed,
+    uninformed_mc,
 )
 from bayestissue.identifiability.profile import (
     CHI2_1_95,
     ProfileOptions,
     ProfileResult,
+    ProfileSet,
     classify_profile,
     fit_least_squares,
+    profile_all,
     profile_likelihood,
 )
 from bayestissue.identifiability.sensitivity import (
@@ -44,8 +48,10 @@ __all__ = [
     "CHI2_1_95",
     "ProfileOptions",
     "ProfileResult",
+    "ProfileSet",
     "SensitivityAnalysis",
     "analyse_sensitivities",
+    "batch_means",
     "bhattacharyya",
     "bound_flags",
     "classify_profile",
@@ -62,9 +68,11 @@ __all__ = [
     "log_predictive_density",
     "predictive_band",
     "principal_angles",
+    "profile_all",
     "profile_likelihood",
     "psis_leave_out",
     "scaled_sensitivities",
     "tension",
     "uninformed",
+    "uninformed_mc",
 ]

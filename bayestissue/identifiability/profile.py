@@ -24,6 +24,13 @@ Classification (Raue et al. 2009):
 * structurally non-identifiable: it is flat, :math:`\\max_t \\mathrm{PL}_i(t) <` ``flat_tol`` over
   the whole range explored (a redundant parametrisation, or no influence on the data at all).
 
+A profile is only meaningful relative to the *global* optimum: a profile point with
+:math:`\\mathrm{PL}_i(t) < 0` is a better optimum the starting fit had missed. :func:`profile_all`
+therefore profiles every parameter, and while any point lies more than ``improvement_tol`` below
+the reference it re-optimises all parameters from the lowest such point (TRF), makes that the new
+reference and recomputes every profile (at most ``max_restarts`` times); the number of restarts
+and the decrease of :math:`\\chi^2` are returned with the profiles.
+
 A simulation that fails (NaN) gives residuals of ``nan_residual`` each, so the optimiser backs off.
 """
 
@@ -40,7 +47,9 @@ from bayestissue._validation import ValidationError, check_positive
 __all__ = [
     "ProfileOptions",
     "ProfileResult",
+    "ProfileSet",
     "fit_least_squares",
+    "profile_all",
     "profile_likelihood",
     "classify_profile",
     "CHI2_1_95",
@@ -53,7 +62,14 @@ CHI2_1_95 = 3.841458820694124
 @dataclass(frozen=True)
 class ProfileOptions:
     """Options of :func:`profile_likelihood` (steps are in the transformed space: log for
-    ``log=True``)."""
+    ``log=True``).
+
+    ``improvement_tol`` (in :math:`\\chi^2 = -2\\log L` units): a profile point more than this below
+    the reference optimum counts as a better optimum (``ProfileResult.improved``; a restart in
+    :func:`profile_all`). The default 1e-3 is 1/3800 of the 3.84 threshold, so a smaller dip cannot
+    move a confidence limit or a classification noticeably, and it is far above the rounding error
+    of :math:`\\chi^2` (about :math:`10^{-16}\\chi^2`, < 1e-10 for the :math:`\\chi^2 < 10^5` here).
+    """
 
     threshold: float = CHI2_1_95
     step0: float = 0.05
@@ -65,9 +81,11 @@ class ProfileOptions:
     nan_residual: float = 1e3
     ftol: float = 1e-10
     max_nfev: int = 400
+    improvement_tol: float = 1e-3
 
     def __post_init__(self):
         for f in (
+            "improvement_tol",
             "threshold",
             "step0",
             "min_step",
@@ -95,7 +113,8 @@ class ProfileResult:
     ``ci`` is the 95 % likelihood interval (NaN on an open side); ``classification`` one of
     ``"identifiable"``, ``"practically non-identifiable"``, ``"structurally non-identifiable"``;
     ``open_sides`` a pair of bools (lower, upper); ``chi2_min`` the optimum's chi-square;
-    ``improved`` True if the profile found a lower chi-square than the optimum it started from.
+    ``improved`` True if the profile found a chi-square more than ``options.improvement_tol``
+    below the optimum it started from (the reference was not the global optimum).
     """
 
     name: str
@@ -288,6 +307,7 @@ def profile_likelihood(
     log: bool | Sequence[bool] = True,
     batched: bool = False,
     options: ProfileOptions | None = None,
+    polish: bool = True,
 ) -> ProfileResult:
     """Profile likelihood of parameter ``index`` around the optimum ``theta_hat``.
 
@@ -295,18 +315,28 @@ def profile_likelihood(
     ----------
     residuals : scaled residuals ``(n_par,) -> (n_obs,)`` (and batched, see
         :func:`fit_least_squares`).
-    theta_hat : (n_par,) the least-squares optimum (re-polished here before profiling).
+    theta_hat : (n_par,) the least-squares optimum (re-polished here before profiling unless
+        ``polish=False``, which :func:`profile_all` uses so that all profiles share one reference).
     index : which parameter to profile.
     lower, upper : bounds of all parameters (the profile runs up to them).
     names : parameter names (for the result).
     log : which parameters are stepped and optimised in log space.
     options : :class:`ProfileOptions`.
+    polish : re-optimise ``theta_hat`` before profiling (else :math:`\\chi^2(\\hat\\theta)` is the
+        reference as given).
 
-    Returns ------- ProfileResult
+    Returns
+    -------
+    ProfileResult
 
-    Notes ----- Step control: the step (in the transformed space) doubles while the profile rises by
-    less than ``0.1 threshold`` per step and halves (down to ``min_step``) when it rises by more
-    than ``0.5 threshold``; a side stops once the profile exceeds ``stop_factor * threshold``, at
+    Notes
+    -----
+    A single profile does not restart when it finds a better optimum (``improved``); use
+    :func:`profile_all` for profiles relative to the global optimum.
+
+    Step control: the step (in the transformed space) doubles while the profile rises by less than
+    ``0.1 threshold`` per step and halves (down to ``min_step``) when it rises by more than
+    ``0.5 threshold``; a side stops once the profile exceeds ``stop_factor * threshold``, at
     the bound, or after ``max_steps``.
     """
     opt = options or ProfileOptions()
@@ -320,7 +350,11 @@ def profile_likelihood(
     free = np.ones(n, bool)
     free[index] = False
     z_hat = prob.to_z(theta_hat)
-    z_hat, chi2_min = prob.fit(z_hat, np.ones(n, bool), ftol=opt.ftol, max_nfev=opt.max_nfev)
+    if polish:
+        z_hat, chi2_min = prob.fit(z_hat, np.ones(n, bool), ftol=opt.ftol, max_nfev=opt.max_nfev)
+    else:
+        r_hat = prob.res(z_hat)
+        chi2_min = float(r_hat @ r_hat)
     thr = opt.threshold
     sides = {}
     for direction in (-1.0, 1.0):
@@ -356,7 +390,7 @@ def profile_likelihood(
     t_all = np.concatenate([t_lo[::-1], [z_hat[index]], t_hi])
     d_all = np.concatenate([d_lo[::-1], [0.0], d_hi])
     z_all = np.concatenate([z_lo[::-1], z_hat[None, :], z_hi])
-    improved = bool(d_all.min() < -1e-6 * max(1.0, chi2_min))
+    improved = bool(d_all.min() < -opt.improvement_tol)
     cls, open_sides = classify_profile(d_lo, d_hi, threshold=thr, flat_tol=opt.flat_tol)
     c_lo = _crossing(np.concatenate([[z_hat[index]], t_lo]), np.concatenate([[0.0], d_lo]), thr)
     c_hi = _crossing(np.concatenate([[z_hat[index]], t_hi]), np.concatenate([[0.0], d_hi]), thr)
@@ -373,4 +407,135 @@ def profile_likelihood(
         open_sides=open_sides,
         classification=cls,
         improved=improved,
+    )
+
+
+@dataclass(frozen=True)
+class ProfileSet:
+    """Profiles of several parameters relative to one reference optimum (see :func:`profile_all`).
+
+    ``profiles`` in the order of the requested indices, all relative to ``theta_hat`` with
+    :math:`\\chi^2` ``chi2_min``; ``chi2_start`` the :math:`\\chi^2` of the optimum polished from the
+    given start; ``n_restarts`` how often a profile point improved on the reference by more than
+    ``improvement_tol`` and all parameters were re-optimised from it; ``improvements`` the decrease
+    of :math:`\\chi^2` of each restart; ``restart_from`` the parameter whose profile gave each
+    restart point; ``converged`` False if ``max_restarts`` was reached with a profile still below
+    the reference; ``first_classifications`` the classifications of the first round (relative to
+    the starting optimum), to show what the restarts changed.
+    """
+
+    profiles: tuple
+    theta_hat: np.ndarray
+    chi2_min: float
+    chi2_start: float
+    n_restarts: int = 0
+    improvements: tuple = ()
+    restart_from: tuple = ()
+    converged: bool = True
+    improvement_tol: float = 1e-3
+    first_classifications: tuple = ()
+
+
+def _serial_map(func, arg_list, kwargs):
+    return [func(*a, **kwargs) for a in arg_list]
+
+
+def profile_all(
+    residuals: Callable[[np.ndarray], np.ndarray],
+    theta_hat: Sequence[float],
+    indices: Sequence[int] | None = None,
+    *,
+    lower: Sequence[float],
+    upper: Sequence[float],
+    names: Sequence[str] | None = None,
+    log: bool | Sequence[bool] = True,
+    batched: bool = False,
+    options: ProfileOptions | None = None,
+    max_restarts: int = 5,
+    refit_nfev: int = 1000,
+    map_fn: Callable | None = None,
+) -> ProfileSet:
+    """Profile likelihoods of ``indices`` relative to the global optimum, restarting the optimum
+    when a profile finds a better one.
+
+    Algorithm: polish ``theta_hat`` by TRF least squares over all parameters (reference
+    :math:`\\hat\\theta_0`); profile every parameter relative to it (:func:`profile_likelihood`
+    with ``polish=False``); if the lowest profile point :math:`\\theta^*` has :math:`\\chi^2(\\theta^*)
+    < \\chi^2(\\hat\\theta_k) -` ``options.improvement_tol``, re-optimise all parameters from
+    :math:`\\theta^*` (TRF, ``ftol=1e-10``, ``refit_nfev`` evaluations), take the result as
+    :math:`\\hat\\theta_{k+1}` and recompute all profiles; stop when no profile improves on the
+    reference or after ``max_restarts`` restarts. The CIs and classifications of the returned
+    profiles are those of the last round, i.e. relative to the best optimum found.
+
+    Parameters
+    ----------
+    residuals, theta_hat, lower, upper, names, log, batched, options : as for
+        :func:`profile_likelihood`.
+    indices : parameters to profile (default all).
+    max_restarts : cap on the restarts (each one recomputes every profile).
+    refit_nfev : evaluation cap of each full re-optimisation.
+    map_fn : ``map_fn(func, arg_tuples, kwargs) -> list`` used to run the profiles of one round
+        (default: serially here), e.g. a wrapper of :func:`bayestissue.parallel.fan_out` for dask
+        and the content-hash cache; it must return ``[func(*a, **kwargs) for a in arg_tuples]``.
+
+    Returns
+    -------
+    ProfileSet
+
+    Raises
+    ------
+    ValidationError
+        For bad ``theta_hat``/bounds (see :func:`profile_likelihood`), ``indices`` out of range or a
+        negative ``max_restarts``.
+
+    References
+    ----------
+    Raue A et al. (2009) Structural and practical identifiability analysis of partially observed
+    dynamical models by exploiting the profile likelihood. Bioinformatics 25:1923-1929,
+    doi:10.1093/bioinformatics/btp358.
+    """
+    opt = options or ProfileOptions()
+    theta, lo, hi, lg = _validate(theta_hat, lower, upper, log)
+    n = theta.size
+    idx = list(range(n)) if indices is None else [int(i) for i in indices]
+    if not idx or any(not 0 <= i < n for i in idx):
+        raise ValidationError("indices", indices, f"integers in [0, {n - 1}]")
+    if int(max_restarts) < 0:
+        raise ValidationError("max_restarts", max_restarts, "an integer >= 0")
+    check_positive("refit_nfev", refit_nfev)
+    run = map_fn or _serial_map
+    fit_kw = dict(lower=lo, upper=hi, log=lg, batched=batched, ftol=1e-10, max_nfev=int(refit_nfev))
+    theta, chi2 = fit_least_squares(residuals, theta, **fit_kw)
+    chi2_start = chi2
+    kw = dict(lower=lo, upper=hi, names=names, log=lg, batched=batched, options=opt, polish=False)
+    improvements, sources, converged, first = [], [], True, None
+    while True:
+        profs = run(profile_likelihood, [(residuals, theta, i) for i in idx], kw)
+        first = first or tuple(p.classification for p in profs)
+        k_best = int(np.argmin([np.min(p.delta_chi2) for p in profs]))
+        best = profs[k_best]
+        j = int(np.argmin(best.delta_chi2))
+        if best.delta_chi2[j] >= -opt.improvement_tol:
+            break
+        if len(improvements) >= int(max_restarts):
+            converged = False
+            break
+        start = np.clip(best.thetas[j], lo, hi)
+        theta_new, chi2_new = fit_least_squares(residuals, start, **fit_kw)
+        if not chi2_new <= chi2 + float(best.delta_chi2[j]):  # TRF only accepts decreasing steps
+            theta_new, chi2_new = start, chi2 + float(best.delta_chi2[j])
+        improvements.append(chi2 - chi2_new)
+        sources.append(best.name)
+        theta, chi2 = theta_new, chi2_new
+    return ProfileSet(
+        profiles=tuple(profs),
+        theta_hat=theta,
+        chi2_min=chi2,
+        chi2_start=chi2_start,
+        n_restarts=len(improvements),
+        improvements=tuple(improvements),
+        restart_from=tuple(sources),
+        converged=converged,
+        improvement_tol=opt.improvement_tol,
+        first_classifications=first,
     )

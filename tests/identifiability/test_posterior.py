@@ -8,6 +8,7 @@ from scipy.stats import norm
 
 from bayestissue._validation import ValidationError
 from bayestissue.identifiability.posterior import (
+    batch_means,
     bhattacharyya,
     bound_flags,
     contraction,
@@ -15,6 +16,7 @@ from bayestissue.identifiability.posterior import (
     kl_divergence,
     principal_angles,
     uninformed,
+    uninformed_mc,
 )
 
 N = 40_000
@@ -94,3 +96,49 @@ def test_posterior_validation():
         bhattacharyya(np.ones((5, 1)), np.ones((5, 2)))
     with pytest.raises(ValidationError, match="A, B"):
         principal_angles(np.ones((3, 1)), np.ones((2, 1)))
+
+
+def _ar1(rng, n, rho, k):
+    """k independent AR(1) series of unit marginal variance, as an (n, k) array."""
+    x = np.empty((n, k))
+    x[0] = rng.normal(size=k)
+    e = rng.normal(size=(n, k)) * np.sqrt(1 - rho**2)
+    for i in range(1, n):
+        x[i] = rho * x[i - 1] + e[i]
+    return x
+
+
+def test_batch_means_error_of_an_ar1_mean_and_the_kl_bias():
+    rng = np.random.default_rng(5)
+    n, rho = 20_000, 0.9
+    x = _ar1(rng, n, rho, 4)
+    r = batch_means(x, lambda d: d.mean(axis=0), n_batches=20)
+    exact = np.sqrt((1 + rho) / (1 - rho) / n)  # sd of the mean of an AR(1) series
+    assert np.median(r["se"]) == pytest.approx(exact, rel=0.3)
+    # negative control: the iid formula underestimates it 4.4-fold
+    assert np.median(r["se"]) > 3 * (1 / np.sqrt(n))
+    # plug-in KL of uniform draws against the uniform prior: bias (n_bins - 1)/(2n) removed
+    u = rng.uniform(size=(4000, 3))
+    k = batch_means(u, lambda d: kl_divergence(d, prior_logpdf=lambda v: np.zeros_like(v), n_bins=30), n_batches=10)
+    assert np.all(k["estimate"] > 0.5 * 29 / 8000)
+    assert np.all(np.abs(k["corrected"]) < 3 * k["se"] + 1e-3)
+    with pytest.raises(ValidationError, match="n_batches"):
+        batch_means(u, np.mean, n_batches=1)
+
+
+def test_uninformed_mc_passes_the_prior_and_fails_an_informed_marginal():
+    rng = np.random.default_rng(6)
+    n = 3000
+    # walkers-like ordering: autocorrelated but stationary uniform draws via the AR(1) copula
+    flat = norm.cdf(_ar1(rng, n, 0.5, 2))
+    narrow = np.clip(0.5 + 0.15 * _ar1(rng, n, 0.5, 1), 0, 1)  # contraction 1 - 0.0225 * 12 = 0.73
+    slight = norm.cdf(0.8 * _ar1(rng, n, 0.5, 1))  # contraction 0.235 (numerically), below the old 0.3
+    u = np.column_stack([flat, narrow, slight])
+    r = uninformed_mc(u, prior_var=[1 / 12] * 4, prior_logpdf=lambda v: np.zeros_like(v))
+    assert r["t"] == pytest.approx(3.25, abs=0.01)
+    assert list(r["uninformed"]) == [True, True, False, False]
+    assert r["contraction"][2] == pytest.approx(0.73, abs=0.05)
+    assert np.all(r["tol_contraction"][:2] < 0.15)  # the tolerance is the Monte Carlo error, not 0.3
+    assert r["contraction"][3] == pytest.approx(0.235, abs=0.05)  # passed the old |c| < 0.3 rule
+    with pytest.raises(ValidationError, match="level"):
+        uninformed_mc(u, prior_var=[1 / 12] * 4, prior_logpdf=lambda v: np.zeros_like(v), level=1.0)

@@ -13,6 +13,7 @@ from bayestissue.identifiability.profile import (
     ProfileOptions,
     classify_profile,
     fit_least_squares,
+    profile_all,
     profile_likelihood,
 )
 
@@ -134,3 +135,66 @@ def test_profile_validation():
         ProfileOptions(max_steps=0)
     with pytest.raises(ValidationError, match="threshold"):
         ProfileOptions(threshold=-1)
+
+
+def _two_wells(theta):
+    """Two minima in a: chi2 = 1.44 (a^2 - 1)^2 + 0.25 (a - 1)^2 + ((b - a)/0.1)^2, global at a = b = 1
+    (chi2 = 0), local at a = b = -0.904 (chi2 = 0.954); the barrier at a = 0 is 0.736 above the local
+    minimum, below the 3.84 threshold, so a profile started in the worse well walks into the
+    better one."""
+    th = np.atleast_2d(theta)
+    a, b = th[:, 0], th[:, 1]
+    r = np.stack([1.2 * (a**2 - 1), 0.5 * (a - 1), (b - a) / 0.1], axis=1)
+    return r if np.ndim(theta) == 2 else r[0]
+
+
+def test_profile_all_restarts_from_a_better_optimum_found_by_a_profile():
+    lo, hi = [-3.0, -3.0], [3.0, 3.0]
+    kw = dict(lower=lo, upper=hi, log=False, batched=True)
+    th_local, c2_local = fit_least_squares(_two_wells, [-1.0, -1.0], **kw)
+    assert th_local[0] < 0 and c2_local == pytest.approx(0.9544, abs=1e-4)  # stuck in the worse well
+    # the defect: a single profile from the local optimum dips 0.954 below 0
+    old = profile_likelihood(_two_wells, th_local, 0, **kw)
+    assert old.improved and old.delta_chi2.min() < -0.9
+    ps = profile_all(_two_wells, th_local, **kw)
+    assert ps.chi2_start == pytest.approx(c2_local, abs=1e-6)
+    assert ps.n_restarts == 1 and ps.converged
+    assert ps.improvements[0] == pytest.approx(c2_local, abs=1e-6)
+    np.testing.assert_allclose(ps.theta_hat, [1.0, 1.0], atol=1e-5)
+    assert ps.chi2_min == pytest.approx(0.0, abs=1e-8)
+    for p in ps.profiles:
+        assert p.delta_chi2.min() >= -ps.improvement_tol
+        assert not p.improved
+        assert p.theta_hat == pytest.approx(1.0, abs=1e-5)
+    # CI of a from the global optimum: 1.44 (a^2-1)^2 + 0.25 (a-1)^2 = 3.84 at a = -1.502 and 1.616
+    # (piecewise-linear crossing between profile steps of 0.05-0.2: a few hundredths)
+    pa = ps.profiles[0]
+    assert pa.classification == "identifiable"
+    # the old profile crossed 3.84 above the wrong reference (chi2 = 4.80): an interval too wide
+    assert ps.first_classifications[0] == old.classification == "identifiable"
+    assert old.ci[0] < pa.ci[0] - 0.05 and old.ci[1] > pa.ci[1] + 0.05
+    assert pa.ci[0] == pytest.approx(-1.502, abs=0.03) and pa.ci[1] == pytest.approx(1.616, abs=0.03)
+    # negative control: started in the global well there is nothing to restart
+    ps_good = profile_all(_two_wells, [0.9, 0.9], **kw)
+    assert ps_good.n_restarts == 0 and ps_good.improvements == ()
+    np.testing.assert_allclose(ps_good.profiles[0].ci, pa.ci, atol=1e-3)
+    # the cap: no restart allowed, the defect is reported instead of hidden
+    ps_cap = profile_all(_two_wells, th_local, [0], max_restarts=0, **kw)
+    assert not ps_cap.converged and ps_cap.n_restarts == 0
+
+
+def test_profile_all_uses_the_given_map_and_validates():
+    calls = []
+
+    def my_map(func, args, kwargs):
+        calls.append(len(args))
+        return [func(*a, **kwargs) for a in args]
+
+    ps = profile_all(_lin, [1.0, 2.0, -1.0], [1, 2], lower=[-10] * 3, upper=[10] * 3, log=False, map_fn=my_map)
+    assert calls == [2] and [p.index for p in ps.profiles] == [1, 2]
+    with pytest.raises(ValidationError, match="indices"):
+        profile_all(_lin, [1.0, 2.0, -1.0], [3], lower=[-10] * 3, upper=[10] * 3, log=False)
+    with pytest.raises(ValidationError, match="max_restarts"):
+        profile_all(_lin, [1.0, 2.0, -1.0], max_restarts=-1, lower=[-10] * 3, upper=[10] * 3, log=False)
+    with pytest.raises(ValidationError, match="improvement_tol"):
+        ProfileOptions(improvement_tol=0.0)
