@@ -14,7 +14,7 @@ emcee ensembles, diagnostics; writes into figures/:
     python studies/calibrate.py [--quick | --full] [--only T1 T2]
 
 ``--quick`` is a CI smoke run (short, unconverged chains); the default uses 2 ndim + 2 walkers and a
-step cap for the full model (4 ndim walkers, 6000 steps for the mirror model) and says plainly
+step cap of 4000 steps (2 ndim + 2 walkers for the full model, 4 ndim for the mirror model) and says plainly
 whether the convergence verdict was met; ``--full`` uses the library defaults (4 ndim walkers,
 20 000 steps). ``--models full mirror`` (default both): the paper's 11 parameters, and the
 mirror-symmetric model (family 3 tied to family 2) in creep-curve coordinates.
@@ -56,7 +56,7 @@ MODELS = {
     "mirror": {"tied": TIED, "coordinates": "creep"},
 }
 #: Sampler settings of the mirror model per mode (4 ndim walkers, the issue's default).
-MIRROR_SAMPLER = {"quick": {}, "default": {"n_walkers": None, "max_steps": 6000}, "full": {"n_walkers": None}}
+MIRROR_SAMPLER = {"quick": {}, "default": {"n_walkers": None, "max_steps": 4000}, "full": {"n_walkers": None}}
 
 MODES = {
     "quick": {
