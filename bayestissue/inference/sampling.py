@@ -259,7 +259,7 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
         nw, ndim, problem.log_posterior_unconstrained, vectorize=True, moves=MOVES[options.moves]()
     )
     sampler.random_state = rs.get_state()
-    state = sampler.run_mcmc(p0, options.prune_steps, progress=False)
+    state = sampler.run_mcmc(p0, options.prune_steps, progress=False, skip_initial_state_check=True)
     delta = ndim / 2 + 5 * np.sqrt(ndim / 2) + 5
     for _ in range(options.prune_rounds - 1):
         coords, lp = state.coords.copy(), state.log_prob.copy()
@@ -271,7 +271,8 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
             coords[bad] = coords[src] + 1e-2 * spread * rs.standard_normal((bad.size, ndim))
             lp[bad] = problem.log_posterior_unconstrained(coords[bad])
         state = emcee.State(coords, log_prob=lp, random_state=sampler.random_state)
-        state = sampler.run_mcmc(state, options.prune_steps, progress=False)
+        # the jittered copies are independent but may make emcee's heuristic condition-number check fire
+        state = sampler.run_mcmc(state, options.prune_steps, progress=False, skip_initial_state_check=True)
     return state.coords
 
 
@@ -361,6 +362,8 @@ def run_ensemble(
     )
     t0 = time.perf_counter()
     if resumed_at == 0:
+        if not emcee.ensemble.walkers_independent(np.asarray(p0, dtype=float)):
+            raise ValidationError("initial walkers", "linearly dependent positions", "independent walkers")
         p0 = _prune_burn_in(problem, p0, options, seed)
         sampler.random_state = np.random.RandomState(seed).get_state()
         state = p0
@@ -374,7 +377,9 @@ def run_ensemble(
         converged, tau = _length_ok(sampler.get_chain(), options)
     while n < options.max_steps and not converged:
         n_next = min((n // every + 1) * every, options.max_steps)
-        sampler.run_mcmc(state, n_next - n, progress=False)
+        # emcee re-checks the walkers' condition number at every call; a thin (sloppy) posterior can
+        # legitimately exceed its 1e8 heuristic, so the start is checked once above instead
+        sampler.run_mcmc(state, n_next - n, progress=False, skip_initial_state_check=True)
         state = None
         n = sampler.iteration
         converged, tau = _length_ok(sampler.get_chain(), options)

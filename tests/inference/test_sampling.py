@@ -155,6 +155,9 @@ def test_sampler_option_errors():
         initial_walkers(problem, np.zeros(2), 8)
     with pytest.raises(ValueError, match=r"p0: expected \(n_walkers, 3\)"):
         run_ensemble(problem, np.zeros((8, 2)))
+    dependent = np.outer(np.arange(8.0), np.ones(3))  # all walkers on one line
+    with pytest.raises(ValueError, match="initial walkers: expected independent walkers"):
+        run_ensemble(problem, dependent, options=SamplerOptions(max_steps=10, prune_rounds=0))
 
 
 def test_resuming_a_finished_run_adds_no_steps(tmp_path):
