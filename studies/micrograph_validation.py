@@ -234,7 +234,7 @@ def _figure(main, sep):
     ax.axhline(1.0, color="k", ls="--", lw=1, label="1 px")
     ax.set_xlabel("section")
     ax.set_ylabel("mean displacement error (px)")
-    ax.set_title("(c) registration error (template of 3 sections)")
+    ax.set_title("(c) registration error\n(template of 3 sections)")
     ax.legend(fontsize=7)
     # (d, e) directions: Lambert equal-area of traced pieces, estimated axes, truth
     for k, (r, name) in enumerate(((main, "default"), (sep, "separable"))):
@@ -270,7 +270,7 @@ def _figure(main, sep):
             ax.axvspan(vv.mean() - sd, vv.mean() + sd, color=c, alpha=0.15, label=f"+-1 {key}")
     ax.axvline(main["vf_true"]["smc_tissue"], color="k", lw=2, label="truth")
     ax.set_xlabel("V_V(SMC, tissue)")
-    ax.set_title("(f) SURS spread vs predicted CE (one sample)")
+    ax.set_title("(f) SURS spread vs predicted CE\n(one sample)")
     ax.legend(fontsize=7)
     return fig
 
