@@ -140,15 +140,6 @@ class CreepCoordinates:
         if b <= 0:
             raise ValidationError("creep coordinates", "fibre law in compression", "a family stretched along x")
         self.b = b
-        self.labels = tuple(
-            "z_f (matrix split)" if i == self.slots[0] else
-            "z_m (log A/B)" if i == self.slots[1] else
-            "z_0 (log E0)" if i == self.slots[2] else
-            "z_J (log creep compliance)" if i == self.slots[3] else
-            "z_c (log creep rate)" if i == self.slots[4] else
-            f"logit {names[i]}"
-            for i in range(len(names))
-        )  # fmt: skip
 
     def _check(self, x) -> np.ndarray:
         x = np.asarray(x, dtype=float)
@@ -193,20 +184,22 @@ class CreepCoordinates:
             g = b_mod / self.b
         return mu, kappa, g, gam, beta
 
-    def from_unconstrained(self, z) -> np.ndarray:
-        z = self._check(z)
+    def _box_z(self, z) -> np.ndarray:
+        """``z`` with the creep slots zeroed, for the box map of the other parameters."""
         zb = np.array(z, dtype=float, copy=True)
         zb[..., self.slots] = 0.0
-        theta = np.array(self.parameters.from_unconstrained(zb), dtype=float)
+        return zb
+
+    def from_unconstrained(self, z) -> np.ndarray:
+        z = self._check(z)
+        theta = np.array(self.parameters.from_unconstrained(self._box_z(z)), dtype=float)
         theta[..., self.slots] = np.stack(self._creep_inverse(z), axis=-1)
         return theta
 
     def log_abs_det_jacobian(self, z) -> np.ndarray:
         """:math:`\\log|\\det \\partial\\theta/\\partial z|` (``-inf`` where the image is degenerate)."""
         z = self._check(z)
-        zb = np.array(z, dtype=float, copy=True)
-        zb[..., self.slots] = 0.0
-        box = self.parameters.log_abs_det_jacobian_terms(zb)[..., self.other].sum(axis=-1)
+        box = self.parameters.log_abs_det_jacobian_terms(self._box_z(z))[..., self.other].sum(axis=-1)
         mu, kappa, g, gam, beta = self._creep_inverse(z)
         with np.errstate(divide="ignore", invalid="ignore"):
             creep = np.log(mu) + np.log(kappa) + np.log(g) + np.log(beta) + np.log(gam) + np.log1p(-gam)
@@ -269,8 +262,6 @@ class ShearedCoordinates:
             expected = f"finite values of shape ({self.grid.size}, {self.dependent.size})"
             raise ValidationError("shear offsets", f"shape {offsets.shape}", expected)
         self._spline = PchipInterpolator(self.grid, offsets, axis=0)
-        self.labels = getattr(base, "labels", None)
-        self.slots = getattr(base, "slots", None)
 
     def _shift(self, z) -> np.ndarray:
         zf = np.clip(np.nan_to_num(z[..., self.free], nan=0.0), self.grid[0], self.grid[-1])
