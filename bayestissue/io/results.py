@@ -36,12 +36,12 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
-import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from bayestissue import __version__
 from bayestissue._validation import ValidationError
+from bayestissue.io.toml_files import read_toml
 
 __all__ = [
     "CONFIG_SECTIONS",
@@ -77,12 +77,7 @@ def read_config(path: str | Path | None) -> dict:
     if path is None:
         return {}
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"configuration file {str(path)!r} does not exist")
-    try:
-        cfg = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ValidationError(f"configuration {path.name}", str(exc), "valid TOML") from None
+    cfg = read_toml(path, "configuration")
     unknown = sorted(set(cfg) - set(CONFIG_SECTIONS))
     if unknown:
         raise ValidationError(

@@ -39,13 +39,13 @@ Replicate table (``data/stereology_replicates.csv``): the contract with the mech
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from bayestissue._validation import ValidationError
 from bayestissue.io.tables import read_table, write_table
+from bayestissue.io.toml_files import read_toml
 
 __all__ = [
     "REPLICATE_COLUMNS",
@@ -144,8 +144,7 @@ def read_line_system(path: str | Path) -> dict:
     side = {}
     sp = sidecar_path(path)
     if sp.is_file():
-        with sp.open("rb") as fh:
-            side = tomllib.load(fh)
+        side = read_toml(sp, "line-system sidecar")
     volume = side.get("volume_um3", meta.get("volume_um3"))
     if volume is None and all(k in side for k in ("extent_x_um", "extent_y_um", "n_sections", "section_thickness_um")):
         volume = side["extent_x_um"] * side["extent_y_um"] * side["n_sections"] * side["section_thickness_um"]

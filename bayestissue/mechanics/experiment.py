@@ -39,7 +39,6 @@ A data file's ``# noise_sd_mm: ...`` header line (written for synthetic replicas
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,6 +46,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_increasing, check_positive
 from bayestissue.io.tables import read_table
+from bayestissue.io.toml_files import read_toml
 from bayestissue.mechanics.protocols import protocol_from_mapping
 from bayestissue.mechanics.tissue import PAPER_TISSUE, TissueConfig
 
@@ -174,12 +174,7 @@ def load_experiment(path: str | Path) -> Experiment:
     what was expected for any bad or missing entry.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"experiment file {str(path)!r} does not exist")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ValidationError(path.name, "invalid TOML", "a TOML experiment file", str(exc)) from None
+    doc = read_toml(path, "experiment")
     where = f"in {path.name}"
     spec = _table(doc, "specimen", where)
     dims = tuple(_get(spec, f"length_{ax}_mm", "specimen", where) for ax in "xyz")

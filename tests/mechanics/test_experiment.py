@@ -190,3 +190,10 @@ def test_tissue_defaults_are_the_papers():
     np.testing.assert_allclose(PAPER_TISSUE.phi_fibres, [0.2, 0.2, 0.2])
     t = TissueConfig(directions=[[1, 0, 0]], phi_fibres=[0.3], phi_matrix=0.7)
     assert t.param_names == ("mu", "kappa", "ginf1", "gamma1", "beta1")
+
+
+def test_invalid_toml_names_the_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[specimen\nlength_x_mm = 5")
+    with pytest.raises(ValidationError, match="experiment bad.toml: expected valid TOML"):
+        load_experiment(bad)
