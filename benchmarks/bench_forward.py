@@ -23,7 +23,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from bayestissue.mechanics import PAPER_BOUNDS, PAPER_PARAMETERS, load_experiment, simulate  # noqa: E402
-from bayestissue.mechanics.reference import reference_simulate  # noqa: E402
+from bayestissue.mechanics.reference import reference_simulate_experiment  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 _STARTUP = (
@@ -83,20 +83,10 @@ def main(argv=None) -> dict:
         f"{1 / per_near:,.0f}/s; {np.count_nonzero(np.isnan(u_near[:, -1]))} failed"
     )
 
-    t = exp.tissue
     base_sets = sets[ok][: args.n_baseline]
     t0 = time.perf_counter()
     for p in base_sets:
-        reference_simulate(
-            p,
-            t.directions,
-            t.phi_fibres,
-            t.phi_matrix,
-            t.bulk_kpa,
-            exp.nominal_stress_kpa(),
-            exp.dt_s,
-            exp.specimen_mm[0],
-        )
+        reference_simulate_experiment(exp, p)
     per_base = (time.perf_counter() - t0) / len(base_sets)
     print(
         f"baseline (scipy.optimize.root per step, NumPy stress): {per_base * 1e3:.1f} ms each ({len(base_sets)} sets)"

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import root
 
-__all__ = ["reference_stress", "reference_simulate"]
+__all__ = ["reference_stress", "reference_simulate", "reference_simulate_experiment"]
 
 
 def reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, tension_trial):
@@ -85,3 +85,20 @@ def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_
         tau_old = tau
         u[n] = (np.sqrt(1.0 + 2.0 * E[0, 0]) - 1.0) * length_x
     return u
+
+
+def reference_simulate_experiment(experiment, params, *, tol=1e-10):
+    """:func:`reference_simulate` on an :class:`~bayestissue.mechanics.experiment.Experiment`'s tissue,
+    load history, step and specimen length (displacement at every simulation step)."""
+    t = experiment.tissue
+    return reference_simulate(
+        params,
+        t.directions,
+        t.phi_fibres,
+        t.phi_matrix,
+        t.bulk_kpa,
+        experiment.nominal_stress_kpa(),
+        experiment.dt_s,
+        experiment.specimen_mm[0],
+        tol=tol,
+    )

@@ -16,7 +16,7 @@ from bayestissue.mechanics import (
     load_experiment,
     simulate,
 )
-from bayestissue.mechanics.reference import reference_simulate
+from bayestissue.mechanics.reference import reference_simulate_experiment
 
 
 def creep(stress=10.6, *, tissue=PAPER_TISSUE, t_end=1200.0, dt=6.0, data_step=3.0):
@@ -84,19 +84,9 @@ def test_full_model_matches_independent_scipy_root_integration():
     """Independent NumPy + scipy.optimize.root integration of the same six equations (with fibres, viscous
     history and shear): agreement to 1e-8 mm over the whole T1 curve for the paper's T1 parameters."""
     exp = load_experiment("data/T1.toml")
-    t = PAPER_TISSUE
     for key in ("T1", "T2"):
         p = PAPER_PARAMETERS[key]
-        ref = reference_simulate(
-            p,
-            t.directions,
-            t.phi_fibres,
-            t.phi_matrix,
-            t.bulk_kpa,
-            exp.nominal_stress_kpa(),
-            exp.dt_s,
-            exp.specimen_mm[0],
-        )
+        ref = reference_simulate_experiment(exp, p)
         ours = simulate(exp, p, full=True).step_displacement_mm[0]
         np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-8)
 
