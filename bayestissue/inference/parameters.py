@@ -179,6 +179,11 @@ class ParameterSet:
         return {s.name: s.tied_to for s in self.specs if s.tied_to is not None}
 
     @property
+    def tied_text(self) -> str:
+        """The ties as ``"ginf3=ginf2, gamma3=gamma2"`` (``"none"`` without ties), for provenance."""
+        return ", ".join(f"{a}={b}" for a, b in self.tied.items()) or "none"
+
+    @property
     def n_sampled(self) -> int:
         return len(self.sampled)
 

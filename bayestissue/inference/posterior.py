@@ -150,7 +150,7 @@ def to_inference_data(
         "sampling_time_s": float(sample.time_s),
         "ensemble_seeds": ",".join(str(s) for s in (sample.seeds or [])),
         "sampler_coordinates": type(problem.coordinates).__name__,
-        "parameters_tied": ", ".join(f"{a}={b}" for a, b in problem.material.tied.items()) or "none",
+        "parameters_tied": problem.material.tied_text,
         **text,
         **dict(attrs or {}),
     }

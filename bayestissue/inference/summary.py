@@ -96,7 +96,7 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
             flags[j].append("bound_active_lower" if a < 0 else "bound_active_upper")
     meta = {
         "parameters_fixed": ", ".join(f"{s.name}={s.value:g}" for s in problem.material.specs if s.fixed) or "none",
-        "parameters_tied": ", ".join(f"{a}={b}" for a, b in problem.material.tied.items()) or "none",
+        "parameters_tied": problem.material.tied_text,
         "least_squares_cost": f"{least_squares.cost:.6g}",
         "least_squares_iterations": least_squares.nit,
     }

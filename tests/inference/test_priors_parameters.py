@@ -156,6 +156,8 @@ def test_tied_parameters_take_the_value_of_their_target():
     pars = paper_parameter_set().updated(tied={"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"})
     assert pars.n_sampled == 8
     assert pars.tied == {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}
+    assert pars.tied_text == "ginf3=ginf2, gamma3=gamma2, beta3=beta2"
+    assert paper_parameter_set().tied_text == "none"
     theta = np.arange(1.0, 9.0)[None] / 10
     full = pars.expand(theta)
     names = pars.names
