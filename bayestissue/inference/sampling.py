@@ -12,6 +12,12 @@ one batched forward call.
   doi:10.1007/s11222-008-9104-9; Nelson et al. 2014, doi:10.1088/0067-0049/210/1/11), which adapt to
   the strongly correlated stiffness parameters better than the stretch move; selectable by name in
   :data:`MOVES`.
+* ``moves="mixture"``: half of the steps are independence proposals from a Student-t mixture fitted
+  to the ensemble's own draws during ``adapt_rounds`` discarded rounds of ``adapt_steps`` and then
+  frozen (:mod:`bayestissue.inference.proposals`), the rest DE 0.4 / DE-snooker 0.1. On the T1
+  replica (mirror model, creep coordinates, 36 walkers, 12 000 steps) the largest tau fell from 165
+  (DE/snooker) to 57 steps and the acceptance rose from 0.136 to 0.137 per move (0.5 of them now jump
+  anywhere).
 * Seeded: ``sampler.random_state`` is set from the caller's Generator (emcee otherwise seeds from
   numpy's global state): same seed, same chain.
 * Checkpoints: emcee ``HDFBackend`` (one group per ensemble); ``resume=True`` continues a killed run
@@ -43,6 +49,7 @@ from emcee.autocorr import auto_window, function_1d
 
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference.problem import CalibrationProblem
+from bayestissue.inference.proposals import MixtureMove, TMixture, fit_t_mixture
 
 __all__ = [
     "MOVES",
@@ -54,14 +61,19 @@ __all__ = [
     "sample_posterior",
 ]
 
-#: Move mixtures by name: each entry builds the ``moves`` argument of ``emcee.EnsembleSampler``.
+#: Move mixtures by name: each entry builds the ``moves`` argument of ``emcee.EnsembleSampler``
+#: from the frozen proposal mixture (only ``mixture`` uses it).
 MOVES: dict[str, Callable] = {
-    "de_snooker": lambda: [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)],
-    "de": lambda: emcee.moves.DEMove(),
-    "stretch": lambda: emcee.moves.StretchMove(),
-    "walk": lambda: emcee.moves.WalkMove(),
-    "kde": lambda: emcee.moves.KDEMove(),
+    "de_snooker": lambda mix=None: [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)],
+    "de": lambda mix=None: emcee.moves.DEMove(),
+    "stretch": lambda mix=None: emcee.moves.StretchMove(),
+    "walk": lambda mix=None: emcee.moves.WalkMove(),
+    "kde": lambda mix=None: emcee.moves.KDEMove(),
+    "mixture": lambda mix: [(MixtureMove(mix), 0.5), (emcee.moves.DEMove(), 0.4), (emcee.moves.DESnookerMove(), 0.1)],
 }
+
+#: Moves that need a fitted proposal (an adaptation phase before production).
+ADAPTIVE_MOVES = ("mixture",)
 
 
 @dataclass(frozen=True)
@@ -83,6 +95,9 @@ class SamplerOptions:
     scatter : multiplier of the Laplace sd for the initial walkers.
     prune_rounds, prune_steps : discarded pre-run in which stuck walkers are moved onto good ones
         (``prune_rounds`` chunks of ``prune_steps``; 0 disables it).
+    adapt_rounds, adapt_steps, mixture_components : adaptation of the ``mixture`` proposal
+        (discarded): ``adapt_rounds`` rounds of ``adapt_steps`` steps, the mixture of up to
+        ``mixture_components`` components refitted to the second half of every round.
     """
 
     n_walkers: int | None = None
@@ -97,6 +112,9 @@ class SamplerOptions:
     scatter: float = 1.0
     prune_rounds: int = 3
     prune_steps: int = 200
+    adapt_rounds: int = 3
+    adapt_steps: int = 1000
+    mixture_components: int = 16
 
     def __post_init__(self):
         if self.moves not in MOVES:
@@ -105,7 +123,7 @@ class SamplerOptions:
             v = getattr(self, name)
             if not (isinstance(v, int | np.integer) and v >= 0):
                 raise ValidationError(name, v, "an integer >= 0")
-        for name in ("n_ensembles", "max_steps", "check_every"):
+        for name in ("n_ensembles", "max_steps", "check_every", "adapt_rounds", "adapt_steps", "mixture_components"):
             v = getattr(self, name)
             if not (isinstance(v, int | np.integer) and v >= 1):
                 raise ValidationError(name, v, "an integer >= 1")
@@ -256,7 +274,7 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
     nw, ndim = p0.shape
     rs = np.random.RandomState((seed + 1) % (2**32 - 1))
     sampler = emcee.EnsembleSampler(
-        nw, ndim, problem.log_posterior_unconstrained, vectorize=True, moves=MOVES[options.moves]()
+        nw, ndim, problem.log_posterior_unconstrained, vectorize=True, moves=_moves(options.moves)
     )
     sampler.random_state = rs.get_state()
     state = sampler.run_mcmc(p0, options.prune_steps, progress=False, skip_initial_state_check=True)
@@ -274,6 +292,34 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
         # the jittered copies are independent but may make emcee's heuristic condition-number check fire
         state = sampler.run_mcmc(state, options.prune_steps, progress=False, skip_initial_state_check=True)
     return state.coords
+
+
+def _moves(name: str, mixture: TMixture | None = None):
+    """emcee moves ``name`` (pre-runs of an adaptive mixture use DE 0.8 / DE-snooker 0.2)."""
+    if name in ADAPTIVE_MOVES and mixture is None:
+        name = "de_snooker"
+    return MOVES[name](mixture)
+
+
+def _adapt_mixture(problem, p0, options, seed) -> tuple[TMixture, np.ndarray]:
+    """Adaptation phase of the ``mixture`` proposal: ``options.adapt_rounds`` rounds of
+    ``options.adapt_steps`` steps (the first with DE/snooker, the next with the mixture fitted so
+    far), refitting to the second half of every round. Discarded; deterministic given ``seed``.
+    Returns the frozen mixture and the walkers' positions."""
+    nw, ndim = p0.shape
+    rs = np.random.RandomState((seed + 2) % (2**32 - 1))
+    mixture, coords = None, p0
+    for _ in range(options.adapt_rounds):
+        sampler = emcee.EnsembleSampler(
+            nw, ndim, problem.log_posterior_unconstrained, vectorize=True, moves=_moves(options.moves, mixture)
+        )
+        sampler.random_state = rs.get_state()
+        state = sampler.run_mcmc(coords, options.adapt_steps, progress=False, skip_initial_state_check=True)
+        rs.set_state(sampler.random_state)
+        coords = state.coords
+        draws = sampler.get_chain(discard=options.adapt_steps // 2, flat=True)
+        mixture = fit_t_mixture(draws, n_components=options.mixture_components, seed=int(rs.randint(2**31 - 1)))
+    return mixture, coords
 
 
 def _length_ok(chain: np.ndarray, options: SamplerOptions) -> tuple[bool, np.ndarray]:
@@ -343,6 +389,8 @@ def run_ensemble(
         raise ValidationError("p0", f"shape {p0.shape}", f"(n_walkers, {problem.ndim})")
     backend = None
     resumed_at = 0
+    mixture = None
+    group = f"ensemble_{ensemble_id}"
     if backend_path is not None:
         backend = emcee.backends.HDFBackend(str(backend_path), name=f"ensemble_{ensemble_id}")
         if resume and Path(backend_path).exists():
@@ -350,25 +398,34 @@ def run_ensemble(
                 resumed_at = backend.iteration
             except (KeyError, OSError):
                 resumed_at = 0
+        if resumed_at > 0 and options.moves in ADAPTIVE_MOVES:
+            mixture = TMixture.from_hdf5(backend_path, f"{group}_proposal")
+            if mixture is None:  # killed between the adaptation and the first checkpoint
+                resumed_at = 0
         if resumed_at == 0:
             backend.reset(n_walkers, ndim)
-    sampler = emcee.EnsembleSampler(
-        n_walkers,
-        ndim,
-        problem.log_posterior_unconstrained,
-        vectorize=True,
-        moves=MOVES[options.moves](),
-        backend=backend,
-    )
     t0 = time.perf_counter()
     if resumed_at == 0:
         if not emcee.ensemble.walkers_independent(np.asarray(p0, dtype=float)):
             raise ValidationError("initial walkers", "linearly dependent positions", "independent walkers")
         p0 = _prune_burn_in(problem, p0, options, seed)
-        sampler.random_state = np.random.RandomState(seed).get_state()
+        if options.moves in ADAPTIVE_MOVES:
+            mixture, p0 = _adapt_mixture(problem, p0, options, seed)
+            if backend_path is not None:
+                mixture.to_hdf5(backend_path, f"{group}_proposal")
         state = p0
     else:
         state = None
+    sampler = emcee.EnsembleSampler(
+        n_walkers,
+        ndim,
+        problem.log_posterior_unconstrained,
+        vectorize=True,
+        moves=_moves(options.moves, mixture),
+        backend=backend,
+    )
+    if resumed_at == 0:
+        sampler.random_state = np.random.RandomState(seed).get_state()
     n = sampler.iteration
     taus, checks = [], []
     every = options.check_every

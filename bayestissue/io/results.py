@@ -28,7 +28,8 @@ Configuration file (all sections and keys optional)::
     [sampler]
     seed = 20261121
     n_ensembles = 4
-    moves = "de_snooker"
+    moves = "de_snooker"              # or "mixture": fitted Student-t independence proposals + DE
+    coordinates = "box"               # or "creep" (with tied families 2/3; inference/coordinates.py)
     max_steps = 20000
 """
 
