@@ -234,6 +234,15 @@ def make_coordinates(kind: str, problem) -> object:
     )
 
 
+def _free_and_grids(free, grids) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Free-coordinate indices as an array and one float grid per free coordinate (a single grid
+    may be passed bare for a single free coordinate)."""
+    free = np.atleast_1d(np.asarray(free, dtype=int))
+    if free.size == 1 and np.ndim(grids[0]) == 0:
+        grids = [grids]
+    return free, [np.asarray(g, dtype=float) for g in grids]
+
+
 class ShearedCoordinates:
     """A base coordinate system sheared along the profile of one or two weakly informed coordinates.
 
@@ -264,11 +273,8 @@ class ShearedCoordinates:
 
         self.base = base
         self.parameters = base.parameters
-        self.free = np.atleast_1d(np.asarray(free, dtype=int))
+        self.free, self.grids = _free_and_grids(free, grids)
         self.dependent = np.asarray(dependent, dtype=int)
-        if self.free.size == 1 and np.ndim(grids[0]) == 0:
-            grids = [grids]
-        self.grids = [np.asarray(g, dtype=float) for g in grids]
         if len(self.grids) != self.free.size or self.free.size not in (1, 2):
             raise ValidationError("shear grids", f"{len(self.grids)} grids", "one grid per free coordinate (1 or 2)")
         offsets = np.asarray(offsets, dtype=float)
@@ -321,11 +327,8 @@ def profile_shear(problem, coords, theta_hat, free, dependent, grids) -> Sheared
     """
     from scipy.optimize import least_squares
 
-    free = np.atleast_1d(np.asarray(free, dtype=int))
+    free, grids = _free_and_grids(free, grids)
     dependent = np.asarray(dependent, dtype=int)
-    if free.size == 1 and np.ndim(grids[0]) == 0:
-        grids = [grids]
-    grids = [np.asarray(g, dtype=float) for g in grids]
     z_hat = np.asarray(coords.to_unconstrained(np.atleast_2d(theta_hat)), dtype=float)[0]
     lo, hi = problem.parameters.lower, problem.parameters.upper
     m = problem.n_material

@@ -61,7 +61,9 @@ class TMixture:
             )
         if not self.df > 0:
             raise ValidationError("t mixture df", self.df, "a number > 0")
-        object.__setattr__(self, "_chol", np.linalg.cholesky(c))
+        chol = np.linalg.cholesky(c)
+        object.__setattr__(self, "_chol", chol)
+        object.__setattr__(self, "_log_det", np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1))
 
     @property
     def ndim(self) -> int:
@@ -80,10 +82,9 @@ class TMixture:
         d, nu = self.ndim, self.df
         const = gammaln((nu + d) / 2) - gammaln(nu / 2) - 0.5 * d * np.log(nu * np.pi)
         terms = []
-        for w, m, chol in zip(self.weights, self.means, self._chol, strict=True):
+        for w, m, chol, log_det in zip(self.weights, self.means, self._chol, self._log_det, strict=True):
             r = solve_triangular(chol, (x - m).T, lower=True)
             maha = np.sum(r * r, axis=0)
-            log_det = np.sum(np.log(np.diag(chol)))
             terms.append(np.log(w) + const - log_det - 0.5 * (nu + d) * np.log1p(maha / nu))
         return logsumexp(np.stack(terms), axis=0)
 
