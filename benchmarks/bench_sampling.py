@@ -7,7 +7,7 @@ tau, min bulk/tail ESS, ESS per second, max R-hat and the verdict (R-hat < 1.01,
 >= 50 tau).
 
     python benchmarks/bench_sampling.py [--walkers 26] [--max-steps 6000] [--moves de_snooker]
-        [--model full|mirror] [--coordinates box|creep]
+        [--model full|mirror] [--coordinates box|creep] [--adapt-rounds 3] [--adapt-steps 1000]
 
 ``--model mirror`` ties fibre family 3's law to family 2's (8 material parameters); ``--coordinates
 creep`` samples in the creep-curve coordinates of :mod:`bayestissue.inference.coordinates`.
@@ -42,6 +42,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--model", choices=["full", "mirror"], default="full")
     ap.add_argument("--coordinates", choices=["box", "creep"], default="box")
+    ap.add_argument("--adapt-rounds", type=int, default=3, help="mixture adaptation rounds (moves=mixture)")
+    ap.add_argument("--adapt-steps", type=int, default=1000, help="steps per adaptation round")
     args = ap.parse_args(argv)
     exp = load_experiment(ROOT / "data" / f"{args.experiment}.toml")
     tied = {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"} if args.model == "mirror" else {}
@@ -68,7 +70,14 @@ def main(argv=None) -> int:
     t_ls = time.perf_counter() - t0
     print(f"least squares (unit space): cost {ls.cost:.5g}, {ls.nit} iterations, {t_ls:.1f} s")
     problem.coordinates = adapt_coordinates(problem, problem.nuisance_estimate(ls.x))
-    opts = SamplerOptions(n_walkers=args.walkers, moves=args.moves, max_steps=args.max_steps, check_every=100)
+    opts = SamplerOptions(
+        n_walkers=args.walkers,
+        moves=args.moves,
+        max_steps=args.max_steps,
+        check_every=100,
+        adapt_rounds=args.adapt_rounds,
+        adapt_steps=args.adapt_steps,
+    )
     sample = sample_posterior(
         problem,
         problem.nuisance_estimate(ls.x),
@@ -86,7 +95,8 @@ def main(argv=None) -> int:
     print(f"max tau per ensemble (steps): {np.round(rep.tau.max(axis=1), 1).tolist()}")
     print(
         f"min bulk ESS {rep.ess_bulk.min():.0f}, min tail ESS {rep.ess_tail.min():.0f}, "
-        f"ESS/s {rep.ess_per_second():.3f}, max R-hat {rep.rhat.max():.4f}, "
+        f"ESS/s {rep.ess_per_second():.3f}, min bulk ESS per 1000 evaluations "
+        f"{1e3 * rep.ess_bulk.min() / max(n_eval, 1):.3f}, max R-hat {rep.rhat.max():.4f}, "
         f"median acceptance {np.median(rep.acceptance):.3f}"
     )
     print(rep.verdict())

@@ -1,6 +1,10 @@
 """Identifiability of the paper's 11 parameters from T1, T2 and both: local (sensitivities, SVD,
 collinearity), profile likelihoods, and what the posteriors learnt (contraction, KL, bounds, correlation).
 
+The posteriors are the calibration stage's mirror-model runs (figures/calibration_{T1,T2,joint}_mirror_posterior.nc
+from studies/calibrate.py, which make study runs first; --posteriors DIR to read them elsewhere), expanded to the 11
+parameters; least squares, profiles and sensitivities use the paper's 11 free parameters.
+
 Writes figures/identifiability_*.png and figures/identifiability_summary.json (read by studies/report.py).
 Independent runs fan out over dask.distributed (LocalCluster, or --scheduler tcp://host:8786) and are cached
 on disk by content hash (--cache-dir): a re-run, or a run after a lost worker, computes only what is missing.
@@ -44,6 +48,7 @@ from bayestissue.identifiability import (  # noqa: E402
 from bayestissue.identifiability.calibration import (  # noqa: E402
     CalibrationTask,
     ExperimentResiduals,
+    attach_posterior,
     drop_stuck_draws,
     run_calibration,
 )
@@ -67,6 +72,9 @@ from bayestissue.plotting.identifiability import (  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 NAMES = param_names()
 LABELS = ("T1", "T2", "joint")
+#: The posteriors analysed here are the calibration stage's mirror-model runs (family 3 tied to family 2;
+#: studies/calibrate.py), reported for all 11 parameters (ginf3, gamma3, beta3 repeat family 2's draws).
+POSTERIOR_RUNS = {"T1": "T1_mirror", "T2": "T2_mirror", "joint": "joint_mirror"}
 
 
 def code_salt(package: Path = ROOT / "bayestissue") -> str:
@@ -89,8 +97,6 @@ class Mode:
     """Budget of one run."""
 
     name: str
-    n_steps: int  # emcee steps per ensemble
-    n_ensembles: int
     n_starts: int  # Latin-hypercube least-squares starts (plus the paper's start and Table 1 estimates)
     profile_params: tuple  # parameters profiled
     profile_steps: int  # max steps per side
@@ -107,8 +113,6 @@ class Mode:
 MODES = {
     "quick": Mode(
         "quick",
-        120,
-        2,
         0,
         ("mu", "ginf1", "beta2"),
         6,
@@ -123,8 +127,6 @@ MODES = {
     ),
     "default": Mode(
         "default",
-        700,
-        2,
         2,
         NAMES,
         14,
@@ -136,8 +138,6 @@ MODES = {
     ),
     "full": Mode(
         "full",
-        6000,
-        4,
         8,
         NAMES,
         40,
@@ -170,6 +170,11 @@ def parse_args(argv=None, description=__doc__):
     )
     ap.add_argument("--data", default=str(ROOT / "data"))
     ap.add_argument("--out", default=str(ROOT / "figures"))
+    ap.add_argument(
+        "--posteriors",
+        default=str(ROOT / "figures"),
+        help="folder of the calibration stage's results files calibration_<run>_posterior.nc",
+    )
     ap.add_argument("--seed", type=int, default=20261121)
     a = ap.parse_args(argv)
     a.mode = MODES["quick" if a.quick else "full" if a.full else "default"]
@@ -217,19 +222,13 @@ def experiments(args):
 
 
 def base_tasks(args):
-    """The three calibrations (T1, T2, both with shared parameters)."""
+    """Least squares of the three calibrations (T1, T2, both with shared parameters), the paper's 11
+    parameters."""
     e1, e2 = experiments(args)
     m = args.mode
     starts = (tuple(PAPER_PARAMETERS["T1"]), tuple(PAPER_PARAMETERS["T2"]))
     full = m.name != "quick"  # quick: each test starts only from its own Table 1 estimate
-    kw = dict(
-        n_steps=m.n_steps,
-        n_ensembles=m.n_ensembles,
-        n_starts=m.n_starts,
-        keep=m.keep,
-        max_nfev=m.ls_nfev,
-        paper_start=full,
-    )
+    kw = dict(n_steps=0, n_starts=m.n_starts, max_nfev=m.ls_nfev, paper_start=full)
     return [
         CalibrationTask((e1,), seed=args.seed + 1, label="T1", extra_starts=starts if full else starts[:1], **kw),
         CalibrationTask((e2,), seed=args.seed + 2, label="T2", extra_starts=starts if full else starts[1:], **kw),
@@ -237,10 +236,26 @@ def base_tasks(args):
     ]
 
 
+def posterior_file(args, lab) -> Path:
+    """The calibration stage's results file of ``lab`` (mirror model: converged chains where the verdict
+    says so)."""
+    return Path(args.posteriors) / f"calibration_{POSTERIOR_RUNS[lab]}_posterior.nc"
+
+
 def calibrations(args, client):
-    """{label: CalibrationOutcome} for T1, T2, joint (cached)."""
+    """{label: CalibrationOutcome} for T1, T2, joint: least squares (cached), posterior from the
+    calibration stage's results files (studies/calibrate.py, which make study runs first)."""
+    missing = [str(posterior_file(args, lab)) for lab in LABELS if not posterior_file(args, lab).is_file()]
+    if missing:
+        raise FileNotFoundError(
+            f"identifiability: expected the calibration stage's posteriors, missing {missing}; "
+            "run `python studies/calibrate.py` first (make study does)"
+        )
     outs = fan_out(run_calibration, base_tasks(args), cache_dir=args.cache_dir, client=client, salt=SALT)
-    return {lab: drop_stuck_draws(o) for lab, o in zip(LABELS, outs, strict=True)}
+    return {
+        lab: drop_stuck_draws(attach_posterior(o, posterior_file(args, lab), keep=args.mode.keep))
+        for lab, o in zip(LABELS, outs, strict=True)
+    }
 
 
 def interior(theta, lo=PAPER_BOUNDS[:, 0], hi=PAPER_BOUNDS[:, 1]):
@@ -321,6 +336,11 @@ def profiles(args, client, res, cal):
     return out
 
 
+def distinct(outcome) -> list[int]:
+    """Columns of the parameters that are sampled, not tied (a tied column repeats its target)."""
+    return [j for j, n in enumerate(NAMES) if n not in outcome.tied]
+
+
 def posterior_measures(cal):
     out = {}
     for lab in LABELS:
@@ -361,7 +381,7 @@ def main(argv=None) -> int:
     print(f"[identifiability] mode {args.mode.name}, cache {args.cache_dir}")
     client = client_for(args)
     try:
-        T.stage("calibration (LS + MCMC)")
+        T.stage("least squares + calibration posteriors")
         cal = calibrations(args, client)
         for lab in LABELS:
             c = cal[lab]
@@ -406,13 +426,15 @@ def main(argv=None) -> int:
     )
     savefig(plot_marginals_overlay({lab: cal[lab].u for lab in LABELS}, NAMES), out / "posterior_marginals.png")
     for lab in LABELS if args.mode.corners else ():
-        fig = plot_corner_overlay({lab: cal[lab].u}, NAMES)
+        js = distinct(cal[lab])
+        fig = plot_corner_overlay({lab: cal[lab].u[:, js]}, [NAMES[j] for j in js])
         savefig(fig, out / f"posterior_corner_{lab}.png")
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
     for ax, lab in zip(axes, LABELS, strict=True):
-        im = ax.imshow(post[lab]["corr"], vmin=-1, vmax=1, cmap="RdBu_r")
-        ax.set_xticks(range(11), NAMES, rotation=90, fontsize=7)
-        ax.set_yticks(range(11), NAMES, fontsize=7)
+        js = distinct(cal[lab])
+        im = ax.imshow(post[lab]["corr"][np.ix_(js, js)], vmin=-1, vmax=1, cmap="RdBu_r")
+        ax.set_xticks(range(len(js)), [NAMES[j] for j in js], rotation=90, fontsize=7)
+        ax.set_yticks(range(len(js)), [NAMES[j] for j in js], fontsize=7)
         ax.set_title(f"{lab}: posterior correlation (scaled box)", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.8)
     savefig(fig, out / "posterior_correlation.png")
@@ -445,6 +467,8 @@ def main(argv=None) -> int:
             "n_failed": c.n_failed,
             "n_dropped": c.n_dropped,
             "time_mcmc_s": c.time_mcmc_s,
+            "sampler": c.sampler,
+            "tied": c.tied,
             "u_mean": c.u.mean(axis=0),
             "u_sd": c.u.std(axis=0),
             "skew": ((c.u - c.u.mean(0)) ** 3).mean(0) / np.maximum(c.u.std(0), 1e-12) ** 3,
@@ -508,7 +532,7 @@ def main(argv=None) -> int:
             "max_abs_corr": [
                 [NAMES[i], NAMES[j], float(pm["corr"][i, j])]
                 for i, j in sorted(
-                    ((i, j) for i in range(11) for j in range(i + 1, 11)), key=lambda ij: -abs(pm["corr"][ij])
+                    ((i, j) for i in distinct(c) for j in distinct(c) if i < j), key=lambda ij: -abs(pm["corr"][ij])
                 )[:5]
             ],
         }

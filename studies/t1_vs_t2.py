@@ -40,6 +40,7 @@ from bayestissue.identifiability import (  # noqa: E402
     tension,
 )
 from bayestissue.identifiability.calibration import (  # noqa: E402
+    MIRROR_TIES,
     PAPER_HALF_ANGLE_DEG,
     CalibrationTask,
     ExperimentResiduals,
@@ -131,7 +132,8 @@ def rate_study(args, client, e2, truth):
 
 
 def replicate_tasks(args, cal, e1, e2):
-    """Cause 2: one calibration per stereology replicate and test (cut posterior), if the table exists."""
+    """Cause 2: one calibration per stereology replicate and test (cut posterior), if the table exists; the
+    mirror model, as the calibration stage's posteriors."""
     path = Path(args.data) / "stereology_replicates.csv"
     if not path.is_file():
         return None, None, []
@@ -155,6 +157,7 @@ def replicate_tasks(args, cal, e1, e2):
                     keep=1000,
                     seed=args.seed + 1000 + int(r),
                     label=f"{lab}_rep{r}",
+                    tied=MIRROR_TIES,
                 )
             )
     return reps, pick, tasks
@@ -284,7 +287,11 @@ def main(argv=None) -> int:
     # ---- figures
     ids.savefig(plot_marginals_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_marginals.png")
     if m.corners:
-        ids.savefig(plot_corner_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_corner.png")
+        js = ids.distinct(cal["T1"])
+        ids.savefig(
+            plot_corner_overlay({"T1": cal["T1"].u[:, js], "T2": cal["T2"].u[:, js]}, [NAMES[j] for j in js]),
+            out / "t1_vs_t2_corner.png",
+        )
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5))
     for ax, key, exp in (
         (axes[0, 0], "T1|T1", e1),
@@ -317,10 +324,10 @@ def main(argv=None) -> int:
         ids.savefig(
             plot_widths(
                 {
-                    "T1 nominal": cut["T1"]["base_width"],
-                    "T1 cut (stereology)": cut["T1"]["cut_width"],
-                    "T2 nominal": cut["T2"]["base_width"],
-                    "T2 cut (stereology)": cut["T2"]["cut_width"],
+                    "T1 one replicate (mean)": cut["T1"]["within_width"],
+                    "T1 cut (pooled)": cut["T1"]["cut_width"],
+                    "T2 one replicate (mean)": cut["T2"]["within_width"],
+                    "T2 cut (pooled)": cut["T2"]["cut_width"],
                 },
                 NAMES,
             ),

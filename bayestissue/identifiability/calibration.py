@@ -15,12 +15,16 @@ Everything here is picklable and deterministic in its arguments, so it can be fa
 * :class:`CalibrationTask` / :func:`run_calibration` -- least squares (multi-start, the paper's method) and
   an emcee posterior through :mod:`bayestissue.inference` with the noise sd known from the data
   file.
+* :func:`attach_posterior` -- the posterior of a calibration results file (``bayestissue fit`` or
+  ``studies/calibrate.py``: converged chains, tied parameters expanded to the paper's 11) attached to a
+  least-squares outcome of the same experiments.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -39,6 +43,8 @@ from bayestissue.inference import (
     sample_posterior,
 )
 from bayestissue.inference.diagnostics import rhat_ensembles
+from bayestissue.inference.likelihood import _tag
+from bayestissue.io.results import read_inference_data
 from bayestissue.mechanics import Experiment, TissueConfig, simulate
 
 __all__ = [
@@ -54,7 +60,12 @@ __all__ = [
     "noise_sd",
     "drop_stuck_draws",
     "tissue_with_half_angle",
+    "attach_posterior",
+    "MIRROR_TIES",
 ]
+
+#: Family 3's law tied to family 2's (the mirror-symmetric model, see ``studies/calibrate.py``).
+MIRROR_TIES = (("ginf3", "ginf2"), ("gamma3", "gamma2"), ("beta3", "beta2"))
 
 #: Indices of the moduli (mu, kappa, ginf1, ginf2, ginf3) in the paper's parameter order.
 MODULI = (0, 1, 2, 5, 8)
@@ -163,6 +174,8 @@ class CalibrationTask:
     paper_start : also start from the paper's initial guess (the multi-start); False with
         ``n_starts=0`` fits only from ``extra_starts`` (warm starts, e.g. per stereology replicate).
     seed : seed of the multi-start and the sampler.
+    tied : pairs ``(name, target)``: ``name`` takes ``target``'s value (e.g. :data:`MIRROR_TIES`); the
+        draws are still reported for all 11 parameters.
     """
 
     experiments: tuple
@@ -177,6 +190,7 @@ class CalibrationTask:
     label: str = ""
     paper_start: bool = True
     max_nfev: int = 400
+    tied: tuple = ()
 
 
 @dataclass
@@ -210,12 +224,18 @@ class CalibrationOutcome:
     experiment_names: tuple = ()
     sampler: str = "inference.sample_posterior"
     n_dropped: int = 0
+    tied: dict = field(default_factory=dict)
 
 
-def build_problem(experiments, *, specimen: tuple | None = None, sd: float | None = None) -> CalibrationProblem:
+def build_problem(
+    experiments, *, specimen: tuple | None = None, sd: float | None = None, tied=()
+) -> CalibrationProblem:
     """A :class:`~bayestissue.inference.CalibrationProblem` of ``experiments`` with known noise sd, the
-    paper's box priors (log-uniform moduli and rates, uniform gamma) and an optional specimen parameter."""
+    paper's box priors (log-uniform moduli and rates, uniform gamma), an optional specimen parameter and
+    optional tied parameters (pairs ``(name, target)``)."""
     material = paper_parameter_set()
+    if tied:
+        material = material.updated(tied=dict(tied))
     if specimen is not None:
         kind, target = specimen
         if target not in [e.name for e in experiments]:
@@ -251,7 +271,7 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
     posterior started around the best optimum. Runs in one process (safe inside a dask worker)."""
     if not task.experiments:
         raise ValidationError("task.experiments", (), "at least one Experiment")
-    problem = build_problem(task.experiments, specimen=task.specimen)
+    problem = build_problem(task.experiments, specimen=task.specimen, tied=task.tied)
     rng = np.random.default_rng(task.seed)
     t0 = time.perf_counter()
     fits = []
@@ -260,28 +280,26 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
         fits = list(fit_multistart(problem, n_starts=task.n_starts, rng=rng, max_nfev=task.max_nfev, **kw).results)
     mat = problem.material
     for start in task.extra_starts:
-        x0 = np.asarray(start, float)
-        if x0.size == mat.n_sampled - 1:
-            x0 = np.append(x0, mat.initial[-1])
-        x0 = np.clip(x0, mat.lower, mat.upper)
-        fits.append(fit_least_squares(problem, x0, max_nfev=task.max_nfev))
+        fits.append(fit_least_squares(problem, _sampled_start(mat, start), max_nfev=task.max_nfev))
     if not fits:
         raise ValidationError("task", "no least-squares start", "paper_start, n_starts > 0 or extra_starts")
     best = min(fits, key=lambda r: r.cost)
     t_ls = time.perf_counter() - t0
     parts = _chi2_parts(problem, best.x)
+    untied = _untied(mat)
     out = CalibrationOutcome(
         label=task.label,
-        names=problem.names,
-        lower=problem.parameters.lower,
-        upper=problem.parameters.upper,
-        ls_x=best.x,
+        names=mat.names,
+        lower=untied.lower,
+        upper=untied.upper,
+        ls_x=mat.expand(best.x),
         ls_chi2=float(parts.sum()),
         chi2_parts=parts,
-        ls_active=best.active,
-        ls_starts=[(r.x, 2 * r.cost) for r in fits],
+        ls_active=mat.expand(np.asarray(best.active, dtype=float)).astype(bool),
+        ls_starts=[(mat.expand(r.x), 2 * r.cost) for r in fits],
         time_ls_s=t_ls,
         experiment_names=tuple(e.name for e in task.experiments),
+        tied=mat.tied,
     )
     if task.n_steps <= 0:
         return out
@@ -309,17 +327,82 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
         out.rhat = rhat_ensembles(draws4)
     flat = draws4.reshape(-1, draws4.shape[-1])
     idx = np.unique(np.linspace(0, flat.shape[0] - 1, min(task.keep, flat.shape[0])).astype(int))
-    out.draws = flat[idx]
-    out.u = problem.parameters.to_unit(out.draws)
-    out.loglik = np.column_stack([ll.sum(axis=1) for ll in problem.log_likelihood_pointwise(out.draws)])
+    out.loglik = np.column_stack([ll.sum(axis=1) for ll in problem.log_likelihood_pointwise(flat[idx])])
+    out.draws = mat.expand(flat[idx])
+    out.u = untied.to_unit(out.draws)
+    return out
+
+
+def _sampled_start(mat: ParameterSet, start) -> np.ndarray:
+    """A least-squares start given for every parameter (the paper's 11, a specimen parameter's initial
+    value appended when missing) -> the sampled ones, clipped into the box."""
+    x0 = np.asarray(start, dtype=float).ravel()
+    if x0.size == len(mat.names) - 1:
+        x0 = np.append(x0, mat.specs[-1].value)
+    if x0.size != len(mat.names):
+        raise ValidationError("least-squares start", f"{x0.size} values", f"{len(mat.names)} ({', '.join(mat.names)})")
+    x0 = x0[[mat.names.index(n) for n in mat.sampled_names]]
+    return np.clip(x0, mat.lower, mat.upper)
+
+
+def _untied(mat: ParameterSet) -> ParameterSet:
+    """``mat`` with every tie released (same boxes and priors): the space of the reported draws."""
+    return ParameterSet(tuple(replace(s, tied_to=None) for s in mat.specs), mat.fixed_inputs)
+
+
+def _parse_ties(text: str) -> dict:
+    """``"a=b, c=d"`` (e.g. ParameterSet.tied_text) -> ``{"a": "b", "c": "d"}``."""
+    pairs = [t.split("=") for t in str(text).split(",") if "=" in t]
+    return {a.strip(): b.strip() for a, b in pairs}
+
+
+def attach_posterior(outcome: CalibrationOutcome, path, *, keep: int = 4000) -> CalibrationOutcome:
+    """A copy of the least-squares ``outcome`` with the posterior of a calibration results file.
+
+    The file (:func:`bayestissue.io.results.write_inference_data`: ``bayestissue fit`` or
+    ``studies/calibrate.py``) must calibrate the same experiments. Its material draws are expanded to
+    the paper's 11 parameters (a tied parameter takes its target's draw; file attribute
+    ``parameters_tied``), thinned evenly to at most ``keep``; ``u`` is their scaled box;
+    ``loglik`` the file's pointwise log-likelihood summed per experiment (its own noise model, e.g.
+    a sampled sd); ``rhat`` the file's between-ensemble R-hat (attribute ``rhat_ensembles``);
+    ``sampler`` names the file and its convergence verdict. Nuisance draws (noise sd) are dropped.
+    """
+    box = paper_parameter_set()
+    if tuple(outcome.names) != box.names:
+        raise ValidationError("outcome.names", outcome.names, f"the paper's 11 parameters {box.names}")
+    path = Path(path)
+    idata = read_inference_data(path)
+    post, attrs = idata.posterior, idata.posterior.attrs
+    tags = [_tag(n) for n in outcome.experiment_names]
+    have = sorted(idata.log_likelihood.data_vars)
+    if have != sorted(tags):
+        raise ValidationError(f"results file {path.name} experiments", have, f"the experiments {sorted(tags)}")
+    tied = _parse_ties(attrs.get("parameters_tied", ""))
+    missing = [n for n in outcome.names if tied.get(n, n) not in post.data_vars]
+    if missing:
+        raise ValidationError(f"results file {path.name}", f"no draws of {missing}", f"draws of {list(outcome.names)}")
+    draws = np.column_stack([post[tied.get(n, n)].values.ravel() for n in outcome.names])
+    n = draws.shape[0]
+    ll = np.column_stack([idata.log_likelihood[t].values.reshape(n, -1).sum(axis=1) for t in tags])
+    idx = np.unique(np.linspace(0, n - 1, min(keep, n)).astype(int))
+    rh = _parse_ties(attrs.get("rhat_ensembles", ""))  # "mu=1.0013,kappa=1.0012,..."
+    out = replace(outcome)
+    out.draws, out.loglik = draws[idx], ll[idx]
+    out.u = box.to_unit(out.draws)
+    out.rhat = np.array([float(rh.get(tied.get(n, n), "nan")) for n in outcome.names])
+    out.acceptance = float(attrs.get("acceptance_mean", float("nan")))
+    out.n_failed = int(attrs.get("n_failed_forward", 0))
+    out.time_mcmc_s = float(attrs.get("sampling_time_s", float("nan")))
+    out.sampler = f"{path.name}: {attrs.get('convergence', 'no verdict recorded')}"
+    out.tied = tied
     return out
 
 
 def drop_stuck_draws(outcome: CalibrationOutcome, *, p: float = 1e-6) -> CalibrationOutcome:
     """Remove draws of stuck walkers: log-likelihood more than :math:`\\chi^2_{d, 1-p}/2` below the best draw.
 
-    Near the mode :math:`2(\\ell_{max} - \\ell) \\sim \\chi^2_d` (d sampled parameters), so with ``p
-    = 1e-6`` a legitimate draw is dropped with probability about 1e-6; an ensemble walker that
+    Near the mode :math:`2(\\ell_{max} - \\ell) \\sim \\chi^2_d` (d sampled parameters, tied ones not
+    counted), so with ``p = 1e-6`` a legitimate draw is dropped with probability about 1e-6; an ensemble walker that
     started in (or jumped to) a region a million times less likely and never moved is not a
     posterior draw. Returns a copy with ``n_dropped`` set.
     """
@@ -328,7 +411,8 @@ def drop_stuck_draws(outcome: CalibrationOutcome, *, p: float = 1e-6) -> Calibra
     if outcome.draws is None:
         return outcome
     ll = outcome.loglik.sum(axis=1)
-    keep = 2 * (ll.max() - ll) <= chi2.ppf(1 - p, outcome.draws.shape[1])
+    d = outcome.draws.shape[1] - len(outcome.tied)  # tied columns repeat their targets
+    keep = 2 * (ll.max() - ll) <= chi2.ppf(1 - p, d)
     out = replace(outcome)
     out.draws, out.u, out.loglik = outcome.draws[keep], outcome.u[keep], outcome.loglik[keep]
     out.n_dropped = int((~keep).sum())

@@ -353,6 +353,7 @@ def run_calibration(
     attrs.update(
         convergence=report.verdict(),
         converged=int(report.converged),
+        acceptance_mean=float(np.mean(report.acceptance)),
         rhat_ensembles=",".join(f"{n}={r:.4f}" for n, r in zip(report.names, report.rhat, strict=True)),
         noise_model=config.noise,
         prior=config.prior,

@@ -205,12 +205,18 @@ def initial_walkers(
         cov_z[:m, :m] = np.diag(np.full(m, (0.1 * max_sd_z) ** 2))
     chol = np.linalg.cholesky(cov_z * scatter**2)
     walkers = z_c + rng.standard_normal((n_walkers, problem.ndim)) @ chol.T
-    for _ in range(20):
+    for attempt in range(20):
         lp = problem.log_posterior_unconstrained(walkers)
         bad = ~np.isfinite(lp)
         if not np.any(bad) and emcee.ensemble.walkers_independent(walkers):
             return walkers
-        walkers[bad] = z_c + rng.standard_normal((int(bad.sum()), problem.ndim)) @ chol.T
+        # redraw around the centre; after 10 rounds (a centre next to a region where solves fail) around
+        # walkers already valid, at a tenth of the scatter
+        base = z_c
+        if attempt >= 10 and np.any(~bad):
+            base = walkers[rng.choice(np.flatnonzero(~bad), int(bad.sum()))]
+        scale = 1.0 if attempt < 10 else 0.1
+        walkers[bad] = base + scale * rng.standard_normal((int(bad.sum()), problem.ndim)) @ chol.T
         if not np.any(bad):  # degenerate: add jitter
             walkers += 1e-3 * rng.standard_normal(walkers.shape)
     raise ValidationError(

@@ -174,3 +174,53 @@ def test_run_calibration_end_to_end_on_a_replica(t2):
     assert 80 < o.ls_chi2 < 143 + 4 * np.sqrt(2 * 143)
     assert o.draws.shape[1] == 11 and o.u.min() >= 0 and o.u.max() <= 1
     assert o.loglik.shape == (o.draws.shape[0], 1)
+
+
+def test_tied_least_squares_reports_all_11_and_attach_posterior_expands_ties(t2, tmp_path):
+    import arviz as az
+
+    from bayestissue.identifiability.calibration import (
+        MIRROR_TIES,
+        CalibrationTask,
+        attach_posterior,
+        run_calibration,
+    )
+    from bayestissue.inference import paper_parameter_set
+    from bayestissue.io.results import write_inference_data
+
+    p2 = np.asarray(PAPER_PARAMETERS["T2"])
+    exp = synthetic_replica(t2, p2, sd=0.02, rng=5)
+    task = CalibrationTask(
+        (exp,), n_starts=0, paper_start=False, extra_starts=(tuple(p2),), n_steps=0, max_nfev=15, tied=MIRROR_TIES
+    )
+    ls = run_calibration(task)
+    names = paper_parameter_set().names
+    assert ls.names == names and ls.ls_x.shape == (11,)
+    for a, b in MIRROR_TIES:  # the tied parameter reports its target's estimate
+        assert ls.ls_x[names.index(a)] == ls.ls_x[names.index(b)]
+    # a results file of the mirror model: 8 material parameters + a noise sd, 4 chains x 50 draws
+    mirror = paper_parameter_set().updated(tied=dict(MIRROR_TIES))
+    rng = np.random.default_rng(0)
+    theta = mirror.from_unit(rng.uniform(0.2, 0.8, size=(200, 8))).reshape(4, 50, 8)
+    post = {n: theta[..., j] for j, n in enumerate(mirror.sampled_names)}
+    post["sigma_T2"] = np.full((4, 50), 0.02)
+    ll = rng.normal(size=(4, 50, exp.time_s.size))
+    rhat = ",".join(f"{n}={1 + j / 1000:.4f}" for j, n in enumerate(mirror.sampled_names))
+    path = write_inference_data(
+        az.from_dict(posterior=post, log_likelihood={"T2": ll}),
+        tmp_path / "post.nc",
+        attrs={"parameters_tied": mirror.tied_text, "rhat_ensembles": rhat, "convergence": "CONVERGED: test"},
+    )
+    o = attach_posterior(ls, path, keep=120)
+    assert o.draws.shape == (120, 11) and ls.draws is None  # a copy
+    idx = np.unique(np.linspace(0, 199, 120).astype(int))
+    flat = theta.reshape(200, 8)[idx]
+    for a, b in MIRROR_TIES:
+        np.testing.assert_array_equal(o.draws[:, names.index(a)], flat[:, mirror.sampled_names.index(b)])
+    np.testing.assert_array_equal(o.draws[:, names.index("mu")], flat[:, 0])
+    np.testing.assert_allclose(o.loglik[:, 0], ll.reshape(200, -1).sum(axis=1)[idx])
+    np.testing.assert_allclose(o.u, paper_parameter_set().to_unit(o.draws))
+    assert o.rhat[names.index("beta3")] == o.rhat[names.index("beta2")] == 1.007
+    assert o.tied == dict(MIRROR_TIES) and "CONVERGED: test" in o.sampler
+    with pytest.raises(ValidationError, match="experiments"):
+        attach_posterior(replace(ls, experiment_names=("T1",)), path)

@@ -8,6 +8,7 @@ import textwrap
 import time
 from pathlib import Path
 
+import emcee
 import numpy as np
 import pytest
 
@@ -219,3 +220,20 @@ def test_one_centre_per_ensemble():
         sample_posterior(problem, np.zeros((3, 3)), options=opts)
     with pytest.raises(ValueError, match="cov: expected one matrix or 2"):
         sample_posterior(problem, mean, cov=[cov], options=opts)
+
+
+def test_initial_walkers_next_to_a_failing_region_are_redrawn_around_valid_ones():
+    # only z0 < centre - 1.5 sd is valid (6.7 % of draws around the centre): 20 rounds of redrawing
+    # around the centre alone leave some of 40 walkers invalid; redrawing near valid walkers succeeds
+    problem, _ = linear_gaussian_problem(rng=1)
+    mean, cov = linear_gaussian_posterior(problem)
+    z_c = problem.coordinates.to_unconstrained(mean[None, :])[0]
+    p_scale = initial_walkers(problem, mean, 400, cov=cov, rng=0)[:, 0].std()
+    inner = problem.log_posterior_unconstrained
+
+    def lp(z):
+        return np.where(z[:, 0] < z_c[0] - 1.5 * p_scale, inner(z), -np.inf)
+
+    problem.log_posterior_unconstrained = lp
+    p0 = initial_walkers(problem, mean, 40, cov=cov, rng=2)
+    assert np.all(np.isfinite(lp(p0))) and emcee.ensemble.walkers_independent(p0)
