@@ -419,8 +419,9 @@ def main(argv=None) -> int:
         )
     w(
         "The posteriors in this report are the calibration stage's mirror-model runs (section 'Mirror-symmetric "
-        "model' below: family 3's law tied to family 2's, noise sd sampled, creep-curve coordinates, fitted-"
-        "mixture moves, 4 independent ensembles, automatic length); ginf3, gamma3 and beta3 repeat family 2's "
+        "model' below: family 3's law tied to family 2's, noise sd sampled, creep-curve coordinates (box for T2), "
+        "fitted-mixture moves, 4 independent ensembles, automatic length up to a step cap); ginf3, gamma3 and beta3 "
+        "repeat family 2's "
         "draws, so their rows above duplicate family 2's. Least squares, profiles and sensitivities use the "
         "paper's 11 free parameters. Sampler diagnostics (R-hat over independent ensembles) and verdicts:\n"
     )
