@@ -24,7 +24,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from bayestissue.inference import SamplerOptions, fit_least_squares, sample_posterior  # noqa: E402
+from bayestissue.inference import MIRROR_TIES, SamplerOptions, fit_least_squares, sample_posterior  # noqa: E402
 from bayestissue.inference.calibration import CalibrationConfig, build_problem  # noqa: E402
 from bayestissue.inference.coordinates import adapt_coordinates  # noqa: E402
 from bayestissue.inference.diagnostics import assess_convergence  # noqa: E402
@@ -46,7 +46,7 @@ def main(argv=None) -> int:
     ap.add_argument("--adapt-steps", type=int, default=1000, help="steps per adaptation round")
     args = ap.parse_args(argv)
     exp = load_experiment(ROOT / "data" / f"{args.experiment}.toml")
-    tied = {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"} if args.model == "mirror" else {}
+    tied = dict(MIRROR_TIES) if args.model == "mirror" else {}
     problem = build_problem([exp], CalibrationConfig(tied=tied, coordinates=args.coordinates))
     print(f"model {args.model}: sampled {', '.join(problem.names)}; coordinates {args.coordinates}")
     p = np.tile(PAPER_PARAMETERS[args.experiment], (args.walkers // 2, 1))

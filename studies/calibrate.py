@@ -38,6 +38,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from bayestissue.inference import MIRROR_TIES  # noqa: E402
 from bayestissue.inference.calibration import config_from_mapping, run_calibration  # noqa: E402
 from bayestissue.inference.summary import table_markdown  # noqa: E402
 from bayestissue.io.results import provenance, write_inference_data  # noqa: E402
@@ -55,7 +56,7 @@ MIRROR = [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
 #: creep-curve coordinates with profile shears (bayestissue.inference.coordinates). The displacement
 #: cannot tell the two families apart, and in the paper's parameters the posterior is an L in
 #: (log mu, log kappa) joined to a thin curved ridge that emcee cannot cross in the step budget.
-TIED = {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}
+TIED = dict(MIRROR_TIES)
 MODELS = {
     "full": {"exchangeable": MIRROR},
     "mirror": {"tied": TIED, "coordinates": "creep"},
@@ -149,13 +150,11 @@ def main(argv=None) -> int:
         name = exp_name if model == "full" else f"{exp_name}_{model}"
         paths = [args.data / f"{e}.toml" for e in exp_names]
         exps = [load_experiment(p) for p in paths]
-        mode = dict(MODES[key])
+        mode, model_cfg = dict(MODES[key]), dict(MODELS[model])
         if model == "mirror":
             mode["sampler"] = {**mode["sampler"], **MIRROR_SAMPLER[key]}
             if key == "default":
                 mode["sampler"]["max_steps"] = MIRROR_CAPS.get(exp_name, 6000)
-        model_cfg = dict(MODELS[model])
-        if model == "mirror":
             model_cfg["coordinates"] = MIRROR_COORDINATES.get(exp_name, "creep")
         config = config_from_mapping(None, seed=SEED, **model_cfg, **mode)
         prov = provenance(seed=SEED, data_paths=[f for p in paths for f in (p, p.with_suffix(".csv"))])

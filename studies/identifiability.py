@@ -522,6 +522,7 @@ def main(argv=None) -> int:
             for p in prof[lab]
         ]
         pm = post[lab]
+        js = distinct(c)
         summary["posterior"][lab] = {
             "contraction": pm["contraction"],
             "kl": pm["kl"],
@@ -531,9 +532,7 @@ def main(argv=None) -> int:
             "share_upper": pm["flags"]["share_upper"],
             "max_abs_corr": [
                 [NAMES[i], NAMES[j], float(pm["corr"][i, j])]
-                for i, j in sorted(
-                    ((i, j) for i in distinct(c) for j in distinct(c) if i < j), key=lambda ij: -abs(pm["corr"][ij])
-                )[:5]
+                for i, j in sorted(((i, j) for i in js for j in js if i < j), key=lambda ij: -abs(pm["corr"][ij]))[:5]
             ],
         }
     fam1 = [NAMES.index(n) for n in ("ginf1", "gamma1", "beta1")]

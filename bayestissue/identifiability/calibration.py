@@ -30,6 +30,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference import (
+    MIRROR_TIES,
     CalibrationProblem,
     ExperimentTerm,
     GaussianNoise,
@@ -63,9 +64,6 @@ __all__ = [
     "attach_posterior",
     "MIRROR_TIES",
 ]
-
-#: Family 3's law tied to family 2's (the mirror-symmetric model, see ``studies/calibrate.py``).
-MIRROR_TIES = (("ginf3", "ginf2"), ("gamma3", "gamma2"), ("beta3", "beta2"))
 
 #: Indices of the moduli (mu, kappa, ginf1, ginf2, ginf3) in the paper's parameter order.
 MODULI = (0, 1, 2, 5, 8)
@@ -326,11 +324,16 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
     if draws4.shape[0] >= 2 and draws4.shape[1] >= 4:
         out.rhat = rhat_ensembles(draws4)
     flat = draws4.reshape(-1, draws4.shape[-1])
-    idx = np.unique(np.linspace(0, flat.shape[0] - 1, min(task.keep, flat.shape[0])).astype(int))
+    idx = _evenly(flat.shape[0], task.keep)
     out.loglik = np.column_stack([ll.sum(axis=1) for ll in problem.log_likelihood_pointwise(flat[idx])])
     out.draws = mat.expand(flat[idx])
     out.u = untied.to_unit(out.draws)
     return out
+
+
+def _evenly(n: int, keep: int) -> np.ndarray:
+    """At most ``keep`` evenly spaced indices into ``n`` draws (thinning)."""
+    return np.unique(np.linspace(0, n - 1, min(keep, n)).astype(int))
 
 
 def _sampled_start(mat: ParameterSet, start) -> np.ndarray:
@@ -350,7 +353,7 @@ def _untied(mat: ParameterSet) -> ParameterSet:
     return ParameterSet(tuple(replace(s, tied_to=None) for s in mat.specs), mat.fixed_inputs)
 
 
-def _parse_ties(text: str) -> dict:
+def _parse_pairs(text: str) -> dict:
     """``"a=b, c=d"`` (e.g. ParameterSet.tied_text) -> ``{"a": "b", "c": "d"}``."""
     pairs = [t.split("=") for t in str(text).split(",") if "=" in t]
     return {a.strip(): b.strip() for a, b in pairs}
@@ -377,15 +380,15 @@ def attach_posterior(outcome: CalibrationOutcome, path, *, keep: int = 4000) -> 
     have = sorted(idata.log_likelihood.data_vars)
     if have != sorted(tags):
         raise ValidationError(f"results file {path.name} experiments", have, f"the experiments {sorted(tags)}")
-    tied = _parse_ties(attrs.get("parameters_tied", ""))
+    tied = _parse_pairs(attrs.get("parameters_tied", ""))
     missing = [n for n in outcome.names if tied.get(n, n) not in post.data_vars]
     if missing:
         raise ValidationError(f"results file {path.name}", f"no draws of {missing}", f"draws of {list(outcome.names)}")
     draws = np.column_stack([post[tied.get(n, n)].values.ravel() for n in outcome.names])
     n = draws.shape[0]
     ll = np.column_stack([idata.log_likelihood[t].values.reshape(n, -1).sum(axis=1) for t in tags])
-    idx = np.unique(np.linspace(0, n - 1, min(keep, n)).astype(int))
-    rh = _parse_ties(attrs.get("rhat_ensembles", ""))  # "mu=1.0013,kappa=1.0012,..."
+    idx = _evenly(n, keep)
+    rh = _parse_pairs(attrs.get("rhat_ensembles", ""))  # "mu=1.0013,kappa=1.0012,..."
     out = replace(outcome)
     out.draws, out.loglik = draws[idx], ll[idx]
     out.u = box.to_unit(out.draws)

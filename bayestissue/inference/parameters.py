@@ -40,7 +40,12 @@ from scipy.special import expit, log_expit, logit
 from bayestissue._validation import ValidationError, check_finite
 from bayestissue.inference.priors import PRIORS, BoxPrior, make_prior
 
-__all__ = ["ParameterSpec", "ParameterSet", "SCALES", "paper_parameter_set"]
+__all__ = ["ParameterSpec", "ParameterSet", "SCALES", "paper_parameter_set", "MIRROR_TIES"]
+
+#: The mirror-symmetric model's ties: fibre family 3 takes family 2's law (pairs ``(name, target)``;
+#: ``dict(MIRROR_TIES)`` for :meth:`ParameterSet.updated`). Families 2 and 3 are mirror images about the
+#: loading axis, so a uniaxial displacement cannot tell them apart.
+MIRROR_TIES = (("ginf3", "ginf2"), ("gamma3", "gamma2"), ("beta3", "beta2"))
 
 #: Scalings of the box before the logit: ``linear`` (g(x) = x) or ``log`` (g(x) = log x, needs lower
 # > 0).

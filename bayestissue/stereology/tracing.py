@@ -496,16 +496,15 @@ def trace_cells(
         bs = [b for b in bs if np.isfinite(b)]
         radius = float(np.median(bs)) if bs else None
     corrected = bool(end_correction and radius is not None)
-    traced = {}
-    for lab_id, pts, full_pts, _, lin, _ in regions:
-        if lin >= max_linearity:
-            continue
+
+    def line_pieces(pts, full_pts):
+        """Straight pieces of one cell, tips restored from the full profile, ends corrected (step 6)."""
         pieces = _pieces(pts, dxyz, piece_length_um, rng)
         if core_px > 0:
             pieces = _extend_ends(pieces, pts, full_pts)
-        if corrected:
-            pieces = _correct_ends(pieces, pts, radius, sp[0])
-        traced[lab_id] = pieces
+        return _correct_ends(pieces, pts, radius, sp[0]) if corrected else pieces
+
+    traced = {lab_id: line_pieces(pts, fp) for lab_id, pts, fp, _, lin, _ in regions if lin < max_linearity}
     # cross-section of a single cell, measured on the simple (line-like) regions
     # with the end correction: per unit of the corrected length (tips and grazed ends included),
     # so that volume / area is a whole length; without it: per unit of the cores' extent
@@ -519,11 +518,7 @@ def trace_cells(
         if lab_id in traced:
             pieces = traced[lab_id]
         elif area is None:
-            pieces = _pieces(pts, dxyz, piece_length_um, rng)
-            if core_px > 0:
-                pieces = _extend_ends(pieces, pts, full_pts)
-            if corrected:
-                pieces = _correct_ends(pieces, pts, radius, sp[0])
+            pieces = line_pieces(pts, full_pts)
         else:  # merged cells: length = volume / cross-section, spread over the pieces
             L_est = max(len(pts) * vox_um3 / area, L)
             k = max(int(np.ceil(L / piece_length_um)), int(round(L_est / piece_length_um)))
