@@ -41,7 +41,7 @@ def main(argv=None) -> int:
     ap.add_argument("--moves", default="de_snooker")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--model", choices=["full", "mirror"], default="full")
-    ap.add_argument("--coordinates", choices=["box", "creep"], default="box")
+    ap.add_argument("--coordinates", choices=["box", "creep", "ramp"], default="box")
     ap.add_argument("--adapt-rounds", type=int, default=3, help="mixture adaptation rounds (moves=mixture)")
     ap.add_argument("--adapt-steps", type=int, default=1000, help="steps per adaptation round")
     args = ap.parse_args(argv)

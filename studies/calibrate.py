@@ -22,7 +22,7 @@ every table says plainly whether the convergence verdict was met. The
 mirror-model posteriors are the ones the identifiability study (studies/identifiability.py, t1_vs_t2.py) reads.
 ``--full`` uses the library defaults (4 ndim walkers, 20 000 steps). ``--models full mirror`` (default
 both): the paper's 11 parameters, and the mirror-symmetric model (family 3 tied to family 2) in creep-curve
-coordinates (box coordinates for T2, MIRROR_COORDINATES).
+coordinates (ramp coordinates for T2, MIRROR_COORDINATES).
 """
 
 from __future__ import annotations
@@ -75,11 +75,14 @@ MIRROR_SAMPLER = {
 #: Step caps of the default mirror runs, within the 20-minute study budget: T1 meets the length criterion
 #: between about 3400 and 9000 steps (one ensemble was still short at 6000); T2 and the joint run do not within any
 #: cap the budget allows (T2: R-hat 1.03 at 12 000), so they stop earlier and their tables say NOT CONVERGED.
-MIRROR_CAPS = {"T1": 9000, "T2": 6000, "joint": 5000}
+MIRROR_CAPS = {"T1": 9000, "T2": 6000, "joint": 9000}
 #: Sampler coordinates of the mirror runs: the creep-curve coordinates fit a creep curve (T1, and the joint run
-#: they let mix: R-hat 1.003 at 6000 steps); on the ramp test T2 the box coordinates mixed better (36 walkers,
-#: 6000 steps, same seed: R-hat 1.019 and acceptance 0.021 vs 1.096 and 0.008 in creep coordinates).
-MIRROR_COORDINATES = {"T2": "box"}
+#: they let mix: R-hat 1.005 at its former 5000-step cap, tau up to 174 steps in a 6000-step trial, hence 9000);
+#: the ramp test T2 gets the ramp coordinates (box sheared along the profile over the fibre viscosity and the
+#: matrix split). Measured with benchmarks/bench_sampling.py --experiment T2 --model mirror --moves mixture
+#: --walkers 36 --adapt-rounds 2 --adapt-steps 500: box R-hat 1.019-1.066 at 6000 steps (tau 340-600, acceptance
+#: 0.02-0.05); ramp CONVERGED after 2100-3900 steps, R-hat 1.0004, tau 20-25, acceptance 0.18, 85 s.
+MIRROR_COORDINATES = {"T2": "ramp"}
 
 MODES = {
     "quick": {

@@ -29,7 +29,7 @@ Configuration file (all sections and keys optional)::
     seed = 20261121
     n_ensembles = 4
     moves = "de_snooker"              # or "mixture": fitted Student-t independence proposals + DE
-    coordinates = "box"               # or "creep" (with tied families 2/3; inference/coordinates.py)
+    coordinates = "box"               # or "creep" (creep tests, tied families 2/3) or "ramp" (force ramps)
     max_steps = 20000
 """
 
