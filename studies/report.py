@@ -777,11 +777,16 @@ def main(argv=None) -> int:
 
     # ---------------------------------------------------------------- limits
     w("## Limitations\n")
+    unconverged = [lab for lab in labs if "NOT CONVERGED" in str(A["calibration"][lab].get("sampler", ""))]
     w(
         "- The posteriors come from the mirror model (family 3 tied to family 2): the data cannot tell the two "
-        "families apart (exchange symmetry above), but two different relaxation laws summed are not one; the "
-        "T2 and joint chains stop at the default step cap, so read their verdicts above before their numbers. "
-        "`--full` runs longer chains, more profile steps, 13 rates and 40 replicates."
+        "families apart (exchange symmetry above), but two different relaxation laws summed are not one. "
+        + (
+            f"Not converged at the step cap: {', '.join(unconverged)}; read their verdicts above before their numbers. "
+            if unconverged
+            else "Every posterior met the convergence verdict. "
+        )
+        + "`--full` runs longer chains, more profile steps, 13 rates and 40 replicates."
     )
     w("- The cut posterior per replicate uses short warm-started chains; widths are indicative.")
     w(
