@@ -104,10 +104,11 @@ class Mode:
     rate_factors: tuple  # cause 1
     rate_profile_factors: tuple  # rates where beta2/beta3 are profiled
     n_replicates: int  # cause 2
-    replicate_steps: int
+    replicate_steps: int  # per replicate chain (one ensemble), after the mixture adaptation
     keep: int = 4000
     ls_nfev: int = 400  # evaluation cap per least-squares fit
     corners: bool = True  # corner plots (slow)
+    replicate_adapt: tuple = (2, 500)  # mixture adaptation of a replicate chain: rounds, steps per round
 
 
 MODES = {
@@ -124,6 +125,7 @@ MODES = {
         keep=1000,
         ls_nfev=60,
         corners=False,
+        replicate_adapt=(1, 60),
     ),
     "default": Mode(
         "default",
@@ -134,7 +136,7 @@ MODES = {
         (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0),
         (0.01, 0.1, 1.0, 10.0),
         6,
-        250,
+        2000,
     ),
     "full": Mode(
         "full",
@@ -145,8 +147,9 @@ MODES = {
         tuple(np.round(np.logspace(-2, 2, 13), 4)),
         tuple(np.round(np.logspace(-2, 2, 7), 4)),
         40,
-        2000,
+        6000,
         keep=20000,
+        replicate_adapt=(3, 1000),
     ),
 }
 

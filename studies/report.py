@@ -596,10 +596,15 @@ def main(argv=None) -> int:
             f"The stereology bootstrap table has {C['n_replicates_table']} replicates (fibre 2/3 half-angle "
             f"{num(C['half_angle_mean'], '.1f')} +- {num(C['half_angle_sd'], '.2f')} degrees, sd of the fibre "
             f"volume fractions {', '.join(num(x, '.3f') for x in C['phi_fibre_sd'])}). A posterior was run per "
-            f"replicate ({C['n_used']} replicates, mirror model, short warm-started chains) and pooled (cut "
-            "posterior). Widths with and without the stereological uncertainty are compared between chains of "
-            "the same kind: 'one replicate' is the mean width of the per-replicate posteriors, 'cut' the width "
-            "of their pool; 'calibration' is the calibration stage's posterior (nominal stereology, long chains).\n"
+            f"replicate ({C['n_used']} replicates, mirror model, the calibration stage's sampler: one ensemble "
+            f"of {C.get('steps', '?')} steps after {' x '.join(map(str, C.get('adapt', ['?'])))} mixture "
+            f"adaptation steps, {C['T1'].get('coordinates', '?')} coordinates for T1 and "
+            f"{C['T2'].get('coordinates', '?')} for T2, warm-started at the calibration's least-squares optimum; "
+            f"mean acceptance T1 {num(C['T1'].get('acceptance'), '.3f')}, T2 {num(C['T2'].get('acceptance'), '.3f')}) "
+            "and pooled (cut posterior). 'One replicate' is the mean width of the per-replicate posteriors, 'cut' "
+            "the width of their pool, 'calibration' the calibration stage's posterior (nominal stereology, four "
+            "ensembles, convergence verdict above). One ensemble per replicate gives no R-hat: the replicate "
+            "widths are checked against the calibration widths instead.\n"
         )
         w(
             "| parameter | T1 calibration | T1 one replicate | T1 cut | T2 calibration | T2 one replicate | T2 cut | "
@@ -788,7 +793,10 @@ def main(argv=None) -> int:
         )
         + "`--full` runs longer chains, more profile steps, 13 rates and 40 replicates."
     )
-    w("- The cut posterior per replicate uses short warm-started chains; widths are indicative.")
+    w(
+        "- The cut posterior per replicate is one ensemble of fixed length (no R-hat); it pools "
+        f"{C['n_used'] if C else 'n/a'} of the table's replicates (`--full`: 40)."
+    )
     w(
         "- Profiles are relative to the best optimum found (multi-start least squares, then restarts from any "
         "profile point that improved on it by more than 1e-3): a global optimum is still not guaranteed, only "

@@ -43,6 +43,7 @@ from bayestissue.inference import (
     paper_parameter_set,
     sample_posterior,
 )
+from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.diagnostics import rhat_ensembles
 from bayestissue.inference.likelihood import _tag
 from bayestissue.io.results import read_inference_data
@@ -174,6 +175,10 @@ class CalibrationTask:
     seed : seed of the multi-start and the sampler.
     tied : pairs ``(name, target)``: ``name`` takes ``target``'s value (e.g. :data:`MIRROR_TIES`); the
         draws are still reported for all 11 parameters.
+    coordinates, moves, adapt_rounds, adapt_steps : the sampler's coordinate system
+        (:data:`bayestissue.inference.coordinates.COORDINATES`; sheared ones are adapted to the best
+        optimum as in the calibration stage) and moves (:class:`~bayestissue.inference.SamplerOptions`).
+        Defaults: box coordinates with DE/snooker moves, a fixed-length chain of ``n_steps``.
     """
 
     experiments: tuple
@@ -189,6 +194,10 @@ class CalibrationTask:
     paper_start: bool = True
     max_nfev: int = 400
     tied: tuple = ()
+    coordinates: str = "box"
+    moves: str = "de_snooker"
+    adapt_rounds: int = 2
+    adapt_steps: int = 500
 
 
 @dataclass
@@ -226,11 +235,11 @@ class CalibrationOutcome:
 
 
 def build_problem(
-    experiments, *, specimen: tuple | None = None, sd: float | None = None, tied=()
+    experiments, *, specimen: tuple | None = None, sd: float | None = None, tied=(), coordinates: str = "box"
 ) -> CalibrationProblem:
     """A :class:`~bayestissue.inference.CalibrationProblem` of ``experiments`` with known noise sd, the
-    paper's box priors (log-uniform moduli and rates, uniform gamma), an optional specimen parameter and
-    optional tied parameters (pairs ``(name, target)``)."""
+    paper's box priors (log-uniform moduli and rates, uniform gamma), an optional specimen parameter,
+    optional tied parameters (pairs ``(name, target)``) and the sampler's coordinate system."""
     material = paper_parameter_set()
     if tied:
         material = material.updated(tied=dict(tied))
@@ -251,7 +260,7 @@ def build_problem(
                 noise=GaussianNoise(sd=noise_sd(e, sd)),
             )
         )
-    return CalibrationProblem(terms, material)
+    return CalibrationProblem(terms, material, coordinates=coordinates)
 
 
 def _chi2_parts(problem: CalibrationProblem, x) -> np.ndarray:
@@ -269,7 +278,7 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
     posterior started around the best optimum. Runs in one process (safe inside a dask worker)."""
     if not task.experiments:
         raise ValidationError("task.experiments", (), "at least one Experiment")
-    problem = build_problem(task.experiments, specimen=task.specimen, tied=task.tied)
+    problem = build_problem(task.experiments, specimen=task.specimen, tied=task.tied, coordinates=task.coordinates)
     rng = np.random.default_rng(task.seed)
     t0 = time.perf_counter()
     fits = []
@@ -308,8 +317,12 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
         max_steps=task.n_steps,
         min_steps=task.n_steps,
         check_every=max(50, task.n_steps // 10),
+        moves=task.moves,
+        adapt_rounds=task.adapt_rounds,
+        adapt_steps=task.adapt_steps,
     )
     t1 = time.perf_counter()
+    problem.coordinates = adapt_coordinates(problem, best.x)
     try:
         post = sample_posterior(problem, best.x, cov=best.cov, options=opts, rng=rng)
         draws4 = post.draws()  # (n_ens, n_draws, n_walkers, ndim)

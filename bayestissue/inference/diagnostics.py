@@ -11,6 +11,14 @@
 * Bulk and tail ESS (Vehtari et al. 2021) with every walker as a chain: the autocorrelation is
   estimated along each walker's own trajectory.
 
+* Ensembles apart (:func:`ensembles_apart`): when :math:`\\hat R` fails, which ensembles sit away from
+  the others and whether they found a mode as high as the others' (a multimodal posterior) or a
+  lower one (a stuck ensemble). Each parameter's pooled draws are rank-normalised,
+  :math:`s = \\Phi^{-1}((r - 3/8) / (N + 1/4))` (the normal scores of rank-normalised
+  :math:`\\hat R`); ensemble *e* is apart in a parameter when its median score differs from the
+  median of the other ensembles' median scores by more than ``threshold`` (default 1, i.e. one sd of
+  the pooled posterior).
+
 Verdict (:func:`assess_convergence`): :math:`\\hat R < 1.01`, bulk and tail ESS :math:`\\ge 400` for
 every sampled parameter, and every ensemble at least :math:`50\\hat\\tau` long with a stable
 :math:`\\hat\\tau`.
@@ -30,6 +38,7 @@ __all__ = [
     "rhat_ensembles",
     "ess_walkers",
     "stuck_walkers",
+    "ensembles_apart",
     "ConvergenceReport",
     "assess_convergence",
 ]
@@ -88,6 +97,41 @@ def stuck_walkers(acceptance, *, rel: float = 0.3, floor: float = 0.0) -> np.nda
     return (acc < max(floor, rel * float(np.median(acc)))) | (acc == 0)
 
 
+def ensembles_apart(draws, log_prob, *, threshold: float = 1.0) -> list[tuple[int, list[int], float]]:
+    """Ensembles whose draws sit away from the other ensembles' (see the module docstring).
+
+    Parameters
+    ----------
+    draws : (n_ensembles, n_draws, n_walkers, ndim) post-burn-in draws.
+    log_prob : (n_ensembles, n_draws, n_walkers) their log-posterior.
+    threshold : shift of the median normal score (pooled sd units) that counts as apart.
+
+    Returns
+    -------
+    list of ``(ensemble, parameter indices, best log-posterior of the ensemble minus the best of the
+    others)``, one per ensemble apart; empty when all ensembles agree.
+    """
+    from scipy.special import ndtri
+    from scipy.stats import rankdata
+
+    d = _check_draws(draws)
+    lp = np.asarray(log_prob, dtype=float)
+    if lp.shape != d.shape[:3]:
+        raise ValidationError("log_prob", f"array of shape {lp.shape}", f"shape {d.shape[:3]} (as draws)")
+    n_ens, ndim = d.shape[0], d.shape[-1]
+    flat = d.reshape(-1, ndim)
+    scores = ndtri((rankdata(flat, axis=0) - 0.375) / (flat.shape[0] + 0.25)).reshape(n_ens, -1, ndim)
+    med = np.median(scores, axis=1)  # (n_ens, ndim)
+    best = np.max(np.where(np.isfinite(lp), lp, -np.inf).reshape(n_ens, -1), axis=1)
+    out = []
+    for e in range(n_ens):
+        others = np.delete(np.arange(n_ens), e)
+        apart = np.flatnonzero(np.abs(med[e] - np.median(med[others], axis=0)) > threshold)
+        if apart.size:
+            out.append((e, apart.tolist(), float(best[e] - best[others].max())))
+    return out
+
+
 @dataclass(frozen=True)
 class ConvergenceReport:
     """Diagnostics of a :class:`~bayestissue.inference.sampling.PosteriorSample`."""
@@ -106,6 +150,7 @@ class ConvergenceReport:
     ess_min: float
     tau_factor: float
     time_s: float
+    apart: tuple = ()  # ensembles_apart(...) entries, computed when R-hat fails
 
     @property
     def converged(self) -> bool:
@@ -128,6 +173,16 @@ class ConvergenceReport:
             lines.append(f"bulk ESS < {self.ess_min:g} for {bad_b}")
         if bad_t:
             lines.append(f"tail ESS < {self.ess_min:g} for {bad_t}")
+        for e, idx, dlp in self.apart:
+            kind = (
+                "a separate mode about as high as the others' (the posterior is multimodal)"
+                if dlp > -2.0
+                else "a lower mode (stuck away from the others' mode)"
+            )
+            lines.append(
+                f"ensemble {e} apart from the others in {[self.names[j] for j in idx]}: its best "
+                f"log-posterior is {dlp:+.1f} from theirs, {kind}"
+            )
         if not np.all(self.length_ok):
             lines.append(
                 f"ensembles {np.flatnonzero(~self.length_ok).tolist()} shorter than "
@@ -157,9 +212,11 @@ def assess_convergence(
     """Diagnostics and verdict of a :class:`~bayestissue.inference.sampling.PosteriorSample`."""
     draws = sample.draws()
     ens = sample.ensembles
+    rhat = rhat_ensembles(draws)
+    apart = ensembles_apart(draws, sample.kept_log_prob()) if np.any(~(rhat < rhat_max)) else []
     return ConvergenceReport(
         names=tuple(sample.names),
-        rhat=rhat_ensembles(draws),
+        rhat=rhat,
         ess_bulk=ess_walkers(draws, method="bulk"),
         ess_tail=ess_walkers(draws, method="tail"),
         tau=np.array([e.tau for e in ens]),
@@ -172,4 +229,5 @@ def assess_convergence(
         ess_min=ess_min,
         tau_factor=tau_factor,
         time_s=float(sample.time_s),
+        apart=tuple(apart),
     )

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from bayestissue.inference import SamplerOptions, sample_posterior
-from bayestissue.inference.diagnostics import ess_walkers, import_arviz, rhat_ensembles
+from bayestissue.inference.diagnostics import (
+    ConvergenceReport,
+    ensembles_apart,
+    ess_walkers,
+    import_arviz,
+    rhat_ensembles,
+)
 from bayestissue.inference.linear import linear_gaussian_posterior, linear_gaussian_problem
 from bayestissue.inference.posterior import to_inference_data
 from bayestissue.inference.summary import summary_table, table_markdown
@@ -29,6 +35,46 @@ def test_rhat_between_ensembles_detects_a_shifted_ensemble():
     assert np.all(ess > 0.7 * 8000)
     with pytest.raises(ValueError, match="draws: expected shape"):
         rhat_ensembles(draws[:1])
+
+
+def test_ensembles_apart_tells_a_second_mode_from_a_stuck_ensemble():
+    """Two modes of a bimodal target: ensemble 2 samples the other mode. Equal log-posterior -> a
+    separate mode of similar height; log-posterior 30 lower -> a lower mode. Parameter 1 is shared by
+    both modes and must not be named; agreeing ensembles give nothing."""
+    rng = np.random.default_rng(1)
+    draws = rng.standard_normal((4, 100, 8, 2))
+    lp = -0.5 * np.sum(draws**2, axis=-1)
+    assert ensembles_apart(draws, lp) == []
+    draws[2, :, :, 0] += 6.0
+    (e, idx, dlp), *rest = ensembles_apart(draws, lp)
+    assert (e, idx, rest) == (2, [0], [])
+    assert abs(dlp) < 1.0
+    lower = lp.copy()
+    lower[2] -= 30.0
+    (_, _, dlp_low), *_ = ensembles_apart(draws, lower)
+    assert dlp_low == pytest.approx(dlp - 30.0)
+    report = ConvergenceReport(
+        names=("a", "b"),
+        rhat=rhat_ensembles(draws),
+        ess_bulk=np.full(2, 1e4),
+        ess_tail=np.full(2, 1e4),
+        tau=np.ones((4, 2)),
+        n_steps=np.full(4, 100),
+        length_ok=np.ones(4, bool),
+        acceptance=np.full((4, 8), 0.3),
+        stuck=np.zeros((4, 8), bool),
+        n_draws=3200,
+        rhat_max=1.01,
+        ess_min=400.0,
+        tau_factor=50.0,
+        time_s=1.0,
+        apart=tuple(ensembles_apart(draws, lower)),
+    )
+    text = report.verdict()
+    assert text.startswith("NOT CONVERGED") and "ensemble 2 apart from the others in ['a']" in text
+    assert "lower mode" in text
+    with pytest.raises(ValueError, match="log_prob"):
+        ensembles_apart(draws, lp[:, :, :4])
 
 
 @pytest.fixture(scope="module")
