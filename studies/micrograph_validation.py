@@ -49,7 +49,8 @@ SIZES = {  # extent (z, y, x) um at 1 um voxels, bootstrap size, SURS repeats, s
 
 
 def _truth_in_field(phantom, stack, valid):
-    """True fractions and L_V of the probed block: camera field (valid part) x stack depth."""
+    """True fractions and L_V of the probed block: camera field (valid part) x stack depth; also L_V of
+    the visible axis (inside each cell's own voxels, TissuePhantom.length_density(visible=True))."""
     m = stack.margin_px
     n, H, W = stack.labels.shape
     depth = int(round(n * stack.thickness_um / phantom.voxel_um))
@@ -67,7 +68,7 @@ def _truth_in_field(phantom, stack, valid):
         )
         * phantom.voxel_um
     )
-    return vf, phantom.length_density(box)
+    return vf, phantom.length_density(box), phantom.length_density(box, visible=True)
 
 
 def _lv_bootstrap(traced, n_boot, rng):
@@ -96,7 +97,7 @@ def run_chain(options, *, seed, n_boot, n_surs, period=2, grid_um=8.0):
     reg = res.registered
     out = {"phantom": phantom, "stack": stack, "res": res, "timing": t}
     out["reg_err_px"] = displacement_error_px(reg.transforms, stack.transforms, stack.images.shape[1:3], mask=reg.valid)
-    vf_true, lv_true = _truth_in_field(phantom, stack, reg.valid)
+    vf_true, lv_true, _ = _truth_in_field(phantom, stack, reg.valid)
     out["vf_true"], out["lv_true"] = vf_true, lv_true
     # segmentation error: registered labels against the true planes of the reference frame
     planes, _ = section_phantom(phantom, thickness_um=5.0)
@@ -145,7 +146,7 @@ def seed_row(options, *, seed, grid_um=8.0, chain=None):
         phantom, stack, res = chain["phantom"], chain["stack"], chain["res"]
     reg = res.registered
     err = displacement_error_px(reg.transforms, stack.transforms, stack.images.shape[1:3], mask=reg.valid)
-    vf, lv = _truth_in_field(phantom, stack, reg.valid)
+    vf, lv, lv_vis = _truth_in_field(phantom, stack, reg.valid)
     planes, _ = section_phantom(phantom, thickness_um=5.0)
     m = stack.margin_px
     ref = planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]] == SMC
@@ -162,6 +163,8 @@ def seed_row(options, *, seed, grid_um=8.0, chain=None):
         "reg_max_px": float(err.max()),
         "vv_err": res.point_counts().summary()["smc"]["V_V"] - vf["smc_tissue"],
         "lv_err_pct": 100 * (tr.length_density() / lv - 1),
+        "lv_visible_err_pct": 100 * (tr.length_density() / lv_vis - 1),
+        "visible_share": lv_vis / lv,
         "lv_true_planes_err_pct": 100 * (on_truth.length_density() / lv - 1),
         "lv_true_planes0_err_pct": 100 * (on_truth0.length_density() / lv - 1),
         "lv_corr_err_pct": 100 * (corr.length_density() / lv - 1),
@@ -350,14 +353,15 @@ def _md(main, sep, args, elapsed, seed_rows, graze):
     L += ["", "## Over seeds (pipeline; directions from one Watson-mixture fit, no bootstrap)", ""]
     L.append("| phantom | seed | registration max (px) | V_V error | L_V error (%) | L_V error, true planes "
              "(%) | L_V error, true planes, core_px=0 (%) | L_V error, end-corrected (%) | "
-             "direction errors (deg) |")  # fmt: skip
-    L.append("|---|---|---|---|---|---|---|---|---|")
+             "visible axis / truth | L_V error vs visible axis (%) | direction errors (deg) |")  # fmt: skip
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|")
     for name, rs in seed_rows.items():
         for r in rs:
             L.append(
                 f"| {name} | {r['seed']} | {r['reg_max_px']:.2f} | {r['vv_err']:+.3f} | "
                 f"{r['lv_err_pct']:+.1f} | {r['lv_true_planes_err_pct']:+.1f} | "
                 f"{r['lv_true_planes0_err_pct']:+.1f} | {r['lv_corr_err_pct']:+.1f} | "
+                f"{r['visible_share']:.3f} | {r['lv_visible_err_pct']:+.1f} | "
                 + ", ".join(f"{x:.1f}" for x in r["dir_err_deg"])
                 + " |"
             )
@@ -417,6 +421,18 @@ def _md(main, sep, args, elapsed, seed_rows, graze):
         "0.586 of the tissue in one unbounded bundle at 1 um voxels and 0.20 to 0.45 with "
         "bundle borders and sinuses, short of 58.9 % without overlap (measured while preparing "
         "this report; not in the package).",
+        "- The truth is defined by the phantom, not by the images: against the visible axis only (the "
+        "part of each cell's axis inside its own voxels, TissuePhantom.length_density(visible=True); "
+        "visible share of the true axis length "
+        + ", ".join(
+            f"{k} {min(r['visible_share'] for r in v):.2f}-{max(r['visible_share'] for r in v):.2f}"
+            for k, v in seed_rows.items()
+        )
+        + ") the pipeline's L_V error is "
+        + _ranges(seed_rows, "lv_visible_err_pct")
+        + " %. Which truth the 15 % target refers to (the full axes of interpenetrating rigid "
+        "spindles, their visible part, or a phantom whose cells deform instead of overlapping) is a "
+        "decision for the issue's owners; the pass count above uses the full axes.",
     ]
     L += ["", "![validation](micrographs_validation.png)", "",
           "![overlay](micrographs_overlay.png)", ""]  # fmt: skip

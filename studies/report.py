@@ -64,12 +64,12 @@ def _mirror_section(out: Path, w) -> None:
     w(
         "The displacement cannot tell fibre families 2 and 3 apart, so `studies/calibrate.py` also calibrates the "
         "mirror-symmetric model (family 3 tied to family 2's law: 8 material parameters) on T1, T2 and both "
-        "together, and samples T1 and the joint run in "
+        "together, and samples T1 in "
         "creep-curve coordinates (`bayestissue/inference/coordinates.py`: matrix split "
         "lambda mu / (lambda mu + kappa), matrix share of the long-time modulus, instantaneous modulus E0, creep "
         "compliance 1/E_inf - 1/E0 and creep rate of a spring in parallel with a Kelvin element; exact Jacobian; "
-        "sheared along the two-dimensional least-squares profile over split and share), and T2 in ramp "
-        "coordinates (the box coordinates sheared along the least-squares profile over the fibre viscosity "
+        "sheared along the two-dimensional least-squares profile over split and share), and T2 and the joint run in "
+        "ramp coordinates (the box coordinates sheared along the least-squares profile over the fibre viscosity "
         "gamma, beta and then over mu, which straightens the valley in which ginf and kappa follow them), with "
         "half of the moves "
         "independence proposals from a Student-t mixture fitted during burn-in (`bayestissue/inference/proposals.py`). "
@@ -421,8 +421,8 @@ def main(argv=None) -> int:
         )
     w(
         "The posteriors in this report are the calibration stage's mirror-model runs (section 'Mirror-symmetric "
-        "model' below: family 3's law tied to family 2's, noise sd sampled, creep-curve coordinates (ramp "
-        "coordinates for T2), "
+        "model' below: family 3's law tied to family 2's, noise sd sampled, creep-curve coordinates for T1, ramp "
+        "coordinates for T2 and the joint run, "
         "fitted-mixture moves, 4 independent ensembles, automatic length up to a step cap); ginf3, gamma3 and beta3 "
         "repeat family 2's "
         "draws, so their rows above duplicate family 2's. Least squares, profiles and sensitivities use the "

@@ -17,7 +17,8 @@
   :math:`s = \\Phi^{-1}((r - 3/8) / (N + 1/4))` (the normal scores of rank-normalised
   :math:`\\hat R`); ensemble *e* is apart in a parameter when its median score differs from the
   median of the other ensembles' median scores by more than ``threshold`` (default 1, i.e. one sd of
-  the pooled posterior).
+  the pooled posterior). Its best log-posterior within 2 of the others' best: a region as high as
+  theirs (a second mode, or a flat ridge the ensembles have not crossed yet); lower: a lower mode.
 
 Verdict (:func:`assess_convergence`): :math:`\\hat R < 1.01`, bulk and tail ESS :math:`\\ge 400` for
 every sampled parameter, and every ensemble at least :math:`50\\hat\\tau` long with a stable
@@ -175,14 +176,13 @@ class ConvergenceReport:
             lines.append(f"tail ESS < {self.ess_min:g} for {bad_t}")
         for e, idx, dlp in self.apart:
             kind = (
-                "a separate mode about as high as the others' (the posterior is multimodal)"
+                f"within 2 of theirs ({dlp:+.1f}): a region as high as theirs (a second mode, or a flat ridge "
+                "not crossed yet)"
                 if dlp > -2.0
-                else "a lower mode (stuck away from the others' mode)"
+                else f"{dlp:+.1f} from theirs: a lower mode it is stuck in"
             )
-            lines.append(
-                f"ensemble {e} apart from the others in {[self.names[j] for j in idx]}: its best "
-                f"log-posterior is {dlp:+.1f} from theirs, {kind}"
-            )
+            names = [self.names[j] for j in idx]
+            lines.append(f"ensemble {e} apart from the others in {names}: best log-posterior {kind}")
         if not np.all(self.length_ok):
             lines.append(
                 f"ensembles {np.flatnonzero(~self.length_ok).tolist()} shorter than "

@@ -172,13 +172,15 @@ class TissuePhantom:
         """Length of every cell axis inside the block (um), sinus crossings included."""
         return np.linalg.norm(self.segments_um[:, 1] - self.segments_um[:, 0], axis=1)
 
-    def tissue_lengths_um(self, box_um=None, *, step_um: float = 0.25) -> np.ndarray:
+    def tissue_lengths_um(self, box_um=None, *, step_um: float = 0.25, visible: bool = False) -> np.ndarray:
         """Length of every cell axis inside tissue (not in a sinus) and inside ``box_um``.
 
         Parameters
         ----------
         box_um : optional ((x0, x1), (y0, y1), (z0, z1)) sub-box in um (default: the whole block).
         step_um : spacing of the sample points along each axis (length resolution).
+        visible : count only the axis inside the cell's own voxels (not where it runs inside an
+            earlier cell it interpenetrates, or a seam).
 
         Returns
         -------
@@ -194,6 +196,8 @@ class TissuePhantom:
             pts = p0 + t[:, None] * (p1 - p0)
             ijk = np.clip((pts / self.voxel_um).astype(int), 0, shape - 1)
             keep = self.components[ijk[:, 2], ijk[:, 1], ijk[:, 0]] != CAVITY
+            if visible:
+                keep &= self.cell_ids[ijk[:, 2], ijk[:, 1], ijk[:, 0]] == i + 1
             if box_um is not None:
                 bx = np.asarray(box_um, dtype=float)
                 keep &= np.all((pts >= bx[:, 0]) & (pts <= bx[:, 1]), axis=1)
@@ -213,13 +217,15 @@ class TissuePhantom:
             "ecm_tissue": n[ECM] / tissue if tissue else float("nan"),
         }
 
-    def length_density(self, box_um=None) -> float:
+    def length_density(self, box_um=None, *, visible: bool = False) -> float:
         r"""True length density :math:`L_V = \sum_i \ell_i / V` (paper eq. 2), um^-2.
 
         :math:`\ell_i` is the length of cell axis *i* in tissue (sinus crossings excluded: the
         micrographs show no cell there) inside ``box_um`` (default: the block), V that box's volume.
+        ``visible``: only the axis inside the cell's own voxels (see :meth:`tissue_lengths_um`), the
+        part an image can show where cells interpenetrate.
         """
-        lengths = self.tissue_lengths_um(box_um)
+        lengths = self.tissue_lengths_um(box_um, visible=visible)
         if box_um is None:
             vol = self.volume_um3
         else:

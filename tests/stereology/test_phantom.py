@@ -106,6 +106,26 @@ def test_tissue_length_excludes_sinuses_and_respects_the_box():
     assert p.length_density(box) == pytest.approx(2.5 / 250, rel=0.02)
 
 
+def test_visible_length_skips_the_axis_inside_another_cell():
+    """Two cells along x at y = z = 5: cell 2's axis (x 0-10) runs through cell 1's voxels for x < 4;
+    its visible length is 6 um, its full length 10; cell 1 (x 0-4) is all visible."""
+    comp = np.full((10, 10, 10), SMC, dtype=np.uint8)
+    ids = np.full(comp.shape, 2, dtype=np.int32)
+    ids[:, :, :4] = 1
+    p = TissuePhantom(
+        components=comp,
+        cell_ids=ids,
+        voxel_um=1.0,
+        segments_um=np.array([[[0.0, 5.0, 5.0], [4.0, 5.0, 5.0]], [[0.0, 5.0, 5.0], [10.0, 5.0, 5.0]]]),
+        directions=np.array([[1.0, 0, 0], [1.0, 0, 0]]),
+        component_of=np.array([0, 0]),
+        options=PhantomOptions(extent_um=(10.0, 10.0, 10.0)),
+    )
+    assert p.tissue_lengths_um() == pytest.approx([4.0, 10.0], abs=0.1)
+    assert p.tissue_lengths_um(visible=True) == pytest.approx([4.0, 6.0], abs=0.1)
+    assert p.length_density(visible=True) == pytest.approx(10.0 / 1000, rel=0.02)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
