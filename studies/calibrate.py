@@ -87,6 +87,14 @@ MIRROR_CAPS = {"T1": 9000, "T2": 6000, "joint": 9000}
 #: ramp with 3 x 1000 adaptation (MIRROR_ADAPT) CONVERGED after 5400-6300 steps (R-hat 1.0011, bulk ESS 4559,
 #: max tau 84; 320 s with the machine shared).
 MIRROR_COORDINATES = {"T2": "ramp", "joint": "ramp"}
+
+
+def mirror_coordinates(exp_name: str) -> str:
+    """Sampler coordinates of the mirror run ``exp_name`` (``T1``, ``T2``, ``joint``): MIRROR_COORDINATES,
+    creep-curve coordinates otherwise."""
+    return MIRROR_COORDINATES.get(exp_name, "creep")
+
+
 #: Mixture adaptation of the default mirror runs where it differs from MIRROR_SAMPLER (see above).
 MIRROR_ADAPT = {"joint": {"adapt_rounds": 3, "adapt_steps": 1000}}
 
@@ -165,7 +173,7 @@ def main(argv=None) -> int:
             if key == "default":
                 mode["sampler"]["max_steps"] = MIRROR_CAPS.get(exp_name, 6000)
                 mode["sampler"].update(MIRROR_ADAPT.get(exp_name, {}))
-            model_cfg["coordinates"] = MIRROR_COORDINATES.get(exp_name, "creep")
+            model_cfg["coordinates"] = mirror_coordinates(exp_name)
         config = config_from_mapping(None, seed=SEED, **model_cfg, **mode)
         prov = provenance(seed=SEED, data_paths=[f for p in paths for f in (p, p.with_suffix(".csv"))])
         prov["study"] = f"studies/calibrate.py --{key}"

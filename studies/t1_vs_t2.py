@@ -24,7 +24,7 @@ from scipy.stats import chi2 as chi2_dist  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import identifiability as ids  # noqa: E402
-from calibrate import MIRROR_COORDINATES  # noqa: E402
+from calibrate import mirror_coordinates  # noqa: E402
 
 from bayestissue.identifiability import (  # noqa: E402
     analyse_sensitivities,
@@ -167,7 +167,7 @@ def replicate_tasks(args, cal, e1, e2):
                     seed=args.seed + 1000 + int(r),
                     label=f"{lab}_rep{r}",
                     tied=MIRROR_TIES,
-                    coordinates=MIRROR_COORDINATES.get(lab, "creep"),
+                    coordinates=mirror_coordinates(lab),
                     moves="mixture",
                     adapt_rounds=args.mode.replicate_adapt[0],
                     adapt_steps=args.mode.replicate_adapt[1],
@@ -285,7 +285,7 @@ def main(argv=None) -> int:
                 "ls_chi2": [o.ls_chi2 for o in rr],
                 "rhat": None,
                 "acceptance": float(np.mean([o.acceptance for o in rr])),
-                "coordinates": MIRROR_COORDINATES.get(lab, "creep"),
+                "coordinates": mirror_coordinates(lab),
             }
         cut["steps"] = m.replicate_steps
         cut["adapt"] = list(m.replicate_adapt)

@@ -31,6 +31,8 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import ndtri
+from scipy.stats import rankdata
 
 from bayestissue._validation import ValidationError
 
@@ -112,9 +114,6 @@ def ensembles_apart(draws, log_prob, *, threshold: float = 1.0) -> list[tuple[in
     list of ``(ensemble, parameter indices, best log-posterior of the ensemble minus the best of the
     others)``, one per ensemble apart; empty when all ensembles agree.
     """
-    from scipy.special import ndtri
-    from scipy.stats import rankdata
-
     d = _check_draws(draws)
     lp = np.asarray(log_prob, dtype=float)
     if lp.shape != d.shape[:3]:

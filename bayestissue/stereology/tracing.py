@@ -275,13 +275,18 @@ def _correct_ends(pieces, core_pts, radius_um: float, thickness_um: float):
     :func:`end_corrected_length`), so that the pieces add up to the end-corrected length."""
     seg = fit_segment(core_pts, (1.0, 1.0, 1.0))
     e1 = (seg[1] - seg[0]) / max(float(np.linalg.norm(seg[1] - seg[0])), 1e-12)
-    ell = sum(float(np.linalg.norm(q[1] - q[0])) for q in pieces)
+    ell = _length(pieces)
     half = 0.5 * (end_corrected_length(ell, radius_um, e1[2], thickness_um) - ell)
     ends = np.array(pieces).reshape(-1, 3)
     t = ends @ e1
     ends[int(np.argmin(t))] -= half * e1
     ends[int(np.argmax(t))] += half * e1
     return list(ends.reshape(-1, 2, 3))
+
+
+def _length(pieces) -> float:
+    """Total length of a cell's straight pieces (each a (2, 3) array of end points, um)."""
+    return sum(float(np.linalg.norm(q[1] - q[0])) for q in pieces)
 
 
 def _points(labels, sl, lab_id, dxyz) -> np.ndarray:
@@ -509,7 +514,7 @@ def trace_cells(
     # with the end correction: per unit of the corrected length (tips and grazed ends included),
     # so that volume / area is a whole length; without it: per unit of the cores' extent
     simple = [
-        len(pts) * vox_um3 / (sum(float(np.linalg.norm(q[1] - q[0])) for q in traced[lab_id]) if corrected else L)
+        len(pts) * vox_um3 / (_length(traced[lab_id]) if corrected else L)
         for lab_id, pts, _, L, *_ in regions
         if lab_id in traced
     ]
@@ -523,7 +528,7 @@ def trace_cells(
             L_est = max(len(pts) * vox_um3 / area, L)
             k = max(int(np.ceil(L / piece_length_um)), int(round(L_est / piece_length_um)))
             pieces = _pieces(pts, dxyz, piece_length_um, rng, k)
-            scale = L_est / sum(float(np.linalg.norm(q[1] - q[0])) for q in pieces)
+            scale = L_est / _length(pieces)
             mids = [q.mean(axis=0) for q in pieces]
             pieces = [m + scale * (q - m) for q, m in zip(pieces, mids, strict=True)]
             if core_px > 0 and not corrected:
