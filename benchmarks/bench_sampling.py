@@ -8,6 +8,7 @@ tau, min bulk/tail ESS, ESS per second, max R-hat and the verdict (R-hat < 1.01,
 
     python benchmarks/bench_sampling.py [--walkers 26] [--max-steps 6000] [--moves de_snooker]
         [--model full|mirror] [--coordinates box|creep] [--adapt-rounds 3] [--adapt-steps 1000]
+        [--proposal own|shared]
 
 ``--model mirror`` ties fibre family 3's law to family 2's (8 material parameters); ``--coordinates
 creep`` samples in the creep-curve coordinates of :mod:`bayestissue.inference.coordinates`.
@@ -44,6 +45,9 @@ def main(argv=None) -> int:
     ap.add_argument("--coordinates", choices=["box", "creep", "ramp"], default="box")
     ap.add_argument("--adapt-rounds", type=int, default=3, help="mixture adaptation rounds (moves=mixture)")
     ap.add_argument("--adapt-steps", type=int, default=1000, help="steps per adaptation round")
+    ap.add_argument(
+        "--proposal", choices=["own", "shared"], default="own", help="mixture fitted per ensemble or shared"
+    )
     args = ap.parse_args(argv)
     exp = load_experiment(ROOT / "data" / f"{args.experiment}.toml")
     tied = dict(MIRROR_TIES) if args.model == "mirror" else {}
@@ -77,6 +81,7 @@ def main(argv=None) -> int:
         check_every=100,
         adapt_rounds=args.adapt_rounds,
         adapt_steps=args.adapt_steps,
+        proposal=args.proposal,
     )
     sample = sample_posterior(
         problem,

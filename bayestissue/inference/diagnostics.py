@@ -176,7 +176,8 @@ class ConvergenceReport:
         for e, idx, dlp in self.apart:
             kind = (
                 f"within 2 of theirs ({dlp:+.1f}): a region as high as theirs (a second mode, or a flat ridge "
-                "not crossed yet)"
+                "not crossed yet; a proposal shared by the ensembles, moves 'mixture' with proposal 'shared', "
+                "can jump between them)"
                 if dlp > -2.0
                 else f"{dlp:+.1f} from theirs: a lower mode it is stuck in"
             )

@@ -18,6 +18,14 @@ one batched forward call.
   replica (mirror model, creep coordinates, 36 walkers, 12 000 steps) the largest tau fell from 165
   (DE/snooker) to 57 steps at the same overall acceptance (0.136 vs 0.137): half of the proposals
   are now jumps across the whole posterior.
+* ``proposal="shared"`` (with ``moves="mixture"``): the ensembles first run their pruning and
+  adaptation apart (:func:`prepare_ensemble`), then one mixture is fitted to the last adaptation
+  round of all of them, frozen, and used by each ensemble's production run. Each production chain is
+  still an ordinary Metropolis-Hastings chain with a fixed proposal, and the ensembles stay
+  independent given it; what changes is that an ensemble can jump into a mode that only another
+  ensemble found (ensembles started at distinct least-squares optima). Independence proposals move
+  mass between modes in proportion to :math:`p/q`, so a mode the mixture over-weights (found by more
+  ensembles) is not favoured at equilibrium.
 * Seeded: ``sampler.random_state`` is set from the caller's Generator (emcee otherwise seeds from
   numpy's global state): same seed, same chain.
 * Checkpoints: emcee ``HDFBackend`` (one group per ensemble); ``resume=True`` continues a killed run
@@ -74,6 +82,8 @@ MOVES: dict[str, Callable] = {
 
 #: Moves that need a fitted proposal (an adaptation phase before production).
 ADAPTIVE_MOVES = ("mixture",)
+#: Where the fitted proposal comes from: each ensemble's own adaptation draws, or all ensembles' draws.
+PROPOSALS = ("own", "shared")
 
 
 @dataclass(frozen=True)
@@ -98,6 +108,10 @@ class SamplerOptions:
     adapt_rounds, adapt_steps, mixture_components : adaptation of the ``mixture`` proposal
         (discarded): ``adapt_rounds`` rounds of ``adapt_steps`` steps, the mixture of up to
         ``mixture_components`` components refitted to the second half of every round.
+    proposal : ``"own"`` (each ensemble's mixture is fitted to its own adaptation draws) or
+        ``"shared"`` (one mixture fitted to the last adaptation round of *all* ensembles, then frozen
+        and used by each: an ensemble can jump into a mode that only another ensemble found;
+        :func:`sample_posterior`).
     """
 
     n_walkers: int | None = None
@@ -115,6 +129,7 @@ class SamplerOptions:
     adapt_rounds: int = 3
     adapt_steps: int = 1000
     mixture_components: int = 16
+    proposal: str = "own"
 
     def __post_init__(self):
         if self.moves not in MOVES:
@@ -133,6 +148,8 @@ class SamplerOptions:
             isinstance(self.n_processes, int | np.integer) and self.n_processes >= 1
         ):
             raise ValidationError("n_processes", self.n_processes, "an integer >= 1 or None")
+        if self.proposal not in PROPOSALS:
+            raise ValidationError("proposal", self.proposal, f"one of {list(PROPOSALS)}")
         check_positive("tau_factor", self.tau_factor)
         check_positive("tau_rtol", self.tau_rtol)
         check_positive("scatter", self.scatter)
@@ -307,11 +324,11 @@ def _moves(name: str, mixture: TMixture | None = None):
     return MOVES[name](mixture)
 
 
-def _adapt_mixture(problem, p0, options, seed) -> tuple[TMixture, np.ndarray]:
+def _adapt_mixture(problem, p0, options, seed) -> tuple[TMixture, np.ndarray, np.ndarray]:
     """Adaptation phase of the ``mixture`` proposal: ``options.adapt_rounds`` rounds of
     ``options.adapt_steps`` steps (the first with DE/snooker, the next with the mixture fitted so
     far), refitting to the second half of every round. Discarded; deterministic given ``seed``.
-    Returns the frozen mixture and the walkers' positions."""
+    Returns the frozen mixture, the walkers' positions and the draws it was fitted to."""
     nw, ndim = p0.shape
     rs = np.random.RandomState((seed + 2) % (2**32 - 1))
     mixture, coords = None, p0
@@ -325,7 +342,20 @@ def _adapt_mixture(problem, p0, options, seed) -> tuple[TMixture, np.ndarray]:
         coords = state.coords
         draws = sampler.get_chain(discard=options.adapt_steps // 2, flat=True)
         mixture = fit_t_mixture(draws, n_components=options.mixture_components, seed=int(rs.randint(2**31 - 1)))
-    return mixture, coords
+    return mixture, coords, draws
+
+
+def prepare_ensemble(problem, p0, *, options: SamplerOptions, seed: int):
+    """The discarded phases of :func:`run_ensemble` (pruning, then the mixture's adaptation for
+    adaptive moves): returns ``(start, mixture, draws)``, the production start, the fitted mixture
+    and the last adaptation round's draws it was fitted to (both None without adaptation).
+    Deterministic given ``seed``; :func:`sample_posterior` fits a shared proposal to all ensembles'
+    draws."""
+    p0 = _prune_burn_in(problem, np.asarray(p0, dtype=float), options, seed)
+    if options.moves not in ADAPTIVE_MOVES:
+        return p0, None, None
+    mixture, start, draws = _adapt_mixture(problem, p0, options, seed)
+    return start, mixture, draws
 
 
 def _length_ok(chain: np.ndarray, options: SamplerOptions) -> tuple[bool, np.ndarray]:
@@ -374,6 +404,7 @@ def run_ensemble(
     ensemble_id: int = 0,
     resume: bool = False,
     progress: Callable[[int, int, int], None] | None = None,
+    proposal: TMixture | None = None,
 ) -> EnsembleResult:
     """Run one ensemble with automatic length, optionally checkpointed to HDF5.
 
@@ -388,6 +419,9 @@ def run_ensemble(
     memory.
     resume : continue the run stored in ``backend_path`` instead of starting afresh.
     progress : ``progress(ensemble_id, steps_done, max_steps)`` after every chunk.
+    proposal : a fitted mixture for adaptive moves, fitted elsewhere (a shared proposal): ``p0`` is
+        then taken as the production start (pruning and adaptation were done by
+        :func:`prepare_ensemble`).
     """
     p0 = np.asarray(p0, dtype=float)
     n_walkers, ndim = p0.shape
@@ -414,11 +448,12 @@ def run_ensemble(
     if resumed_at == 0:
         if not emcee.ensemble.walkers_independent(np.asarray(p0, dtype=float)):
             raise ValidationError("initial walkers", "linearly dependent positions", "independent walkers")
-        p0 = _prune_burn_in(problem, p0, options, seed)
-        if options.moves in ADAPTIVE_MOVES:
-            mixture, p0 = _adapt_mixture(problem, p0, options, seed)
-            if backend_path is not None:
-                mixture.to_hdf5(backend_path, f"{group}_proposal")
+        if proposal is not None:
+            mixture = proposal
+        else:
+            p0, mixture, _ = prepare_ensemble(problem, p0, options=options, seed=seed)
+        if mixture is not None and backend_path is not None:
+            mixture.to_hdf5(backend_path, f"{group}_proposal")
         state = p0
     else:
         state = None
@@ -526,24 +561,68 @@ def _init_worker(problem, progress_queue):
     _WORKER["queue"] = progress_queue
 
 
-def _worker(k, p0, seed, options, path, resume):
+def _task(problem, task, k, p0, seed, options, path, resume, proposal, progress):
+    """One ensemble's ``task``: ``"prepare"`` (:func:`prepare_ensemble`; returns its start and draws)
+    or ``"run"`` (:func:`run_ensemble`), with the problem's evaluations and failures during it."""
+    n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
+    if task == "prepare":
+        start, _, draws = prepare_ensemble(problem, p0, options=options, seed=seed)
+        out = (start, draws)
+    else:
+        out = run_ensemble(
+            problem,
+            p0,
+            options=options,
+            seed=seed,
+            backend_path=path,
+            ensemble_id=k,
+            resume=resume,
+            progress=progress,
+            proposal=proposal,
+        )
+    return out, problem.n_evaluations - n_eval0, problem.n_failed - n_fail0
+
+
+def _worker(task, *args):
     q = _WORKER["queue"]
-    problem = _WORKER["problem"]
-    problem.n_evaluations = problem.n_failed = 0
 
     def report(eid, n, nmax):
         q.put((eid, n, nmax))
 
-    return run_ensemble(
-        problem,
-        p0,
-        options=options,
-        seed=seed,
-        backend_path=path,
-        ensemble_id=k,
-        resume=resume,
-        progress=report,
-    )
+    return _task(_WORKER["problem"], task, *args, report)
+
+
+def _run_tasks(problem, task, args, n_proc, progress):
+    """``_task`` for every ensemble's arguments in ``args``: in forked processes when ``n_proc > 1``,
+    else one after another in this process. Returns ``(output, n_evaluations, n_failed)`` each."""
+    if n_proc > 1 and "fork" in mp.get_all_start_methods():
+        ctx = mp.get_context("fork")
+        q = ctx.Queue()
+        with ProcessPoolExecutor(n_proc, mp_context=ctx, initializer=_init_worker, initargs=(problem, q)) as ex:
+            futs = [ex.submit(_worker, task, *a) for a in args]
+            while not all(f.done() for f in futs):
+                try:
+                    msg = q.get(timeout=0.2)
+                except _queue.Empty:
+                    continue
+                if progress is not None:
+                    progress(*msg)
+            results = [f.result() for f in futs]
+            while progress is not None and not q.empty():
+                progress(*q.get())
+        return results
+    return [_task(problem, task, *a, progress) for a in args]
+
+
+def _checkpointed(path, k) -> bool:
+    """Whether ``path`` holds a started run of ensemble ``k`` with its proposal (resumable as is)."""
+    if path is None or not Path(path).exists():
+        return False
+    try:
+        n = emcee.backends.HDFBackend(str(path), name=f"ensemble_{k}", read_only=True).iteration
+    except (KeyError, OSError):
+        return False
+    return n > 0 and TMixture.from_hdf5(path, f"ensemble_{k}_proposal") is not None
 
 
 def sample_posterior(
@@ -602,36 +681,19 @@ def sample_posterior(
     n_proc = options.n_processes or min(n_ens, os.cpu_count() or 1)
     n_proc = min(n_proc, n_ens)
     t0 = time.perf_counter()
-    if n_proc > 1 and "fork" in mp.get_all_start_methods():
-        ctx = mp.get_context("fork")
-        q = ctx.Queue()
-        with ProcessPoolExecutor(n_proc, mp_context=ctx, initializer=_init_worker, initargs=(problem, q)) as ex:
-            futs = [ex.submit(_worker, k, p0s[k], seeds[k], options, paths[k], resume) for k in range(n_ens)]
-            while not all(f.done() for f in futs):
-                try:
-                    msg = q.get(timeout=0.2)
-                except _queue.Empty:
-                    continue
-                if progress is not None:
-                    progress(*msg)
-            results = [f.result() for f in futs]
-            while progress is not None and not q.empty():
-                progress(*q.get())
-    else:
-        results = []
-        for k in range(n_ens):
-            n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
-            r = run_ensemble(
-                problem,
-                p0s[k],
-                options=options,
-                seed=seeds[k],
-                backend_path=paths[k],
-                ensemble_id=k,
-                resume=resume,
-                progress=progress,
-            )
-            r.n_evaluations -= n_eval0
-            r.n_failed -= n_fail0
-            results.append(r)
+    args = [(k, p0s[k], seeds[k], options, paths[k], resume, None) for k in range(n_ens)]
+    extra = [(0, 0)] * n_ens
+    shared = options.proposal == "shared" and options.moves in ADAPTIVE_MOVES
+    if shared and not (resume and all(_checkpointed(paths[k], k) for k in range(n_ens))):
+        prepared = _run_tasks(problem, "prepare", args, n_proc, None)
+        draws = np.concatenate([out[1] for out, _, _ in prepared])
+        mixture = fit_t_mixture(draws, n_components=options.mixture_components, seed=seeds[0] % (2**31 - 1))
+        args = [(k, prepared[k][0][0], seeds[k], options, paths[k], resume, mixture) for k in range(n_ens)]
+        extra = [(n_eval, n_fail) for _, n_eval, n_fail in prepared]
+    results = []
+    for (r, n_eval, n_fail), (n_eval0, n_fail0) in zip(
+        _run_tasks(problem, "run", args, n_proc, progress), extra, strict=True
+    ):
+        r.n_evaluations, r.n_failed = n_eval + n_eval0, n_fail + n_fail0
+        results.append(r)
     return PosteriorSample(problem.names, results, problem, time.perf_counter() - t0, seeds)
