@@ -74,11 +74,11 @@ MIRROR_SAMPLER = {
 }
 
 #: Sampler settings of the 11-parameter model per mode: fitted-mixture moves with one proposal shared by the four
-#: ensembles (SamplerOptions.proposal = "shared"), so that an ensemble can jump into a mode another one found. Measured
-#: at the default budget (26 walkers, 2000 steps, seed SEED): DE/snooker moves left one T1 ensemble in a second mode
-#: (R-hat 1.955) and two T2 ensembles in lower modes (R-hat 2.199 with own mixtures); a shared mixture brought all four
-#: ensembles together (max R-hat 1.108 on T1, 1.084 on T2), still NOT CONVERGED: within a mode tau is 200 steps at
-#: 2000 and grew to 2700-2900 at 30 000 (48 walkers, creep coordinates, 36 min).
+#: ensembles (SamplerOptions.proposal = "shared"), so that an ensemble can jump into a mode another one found.
+#: Measured at the default budget (26 walkers, 2000 steps, seed SEED): DE/snooker moves left one T1 ensemble in a
+#: second mode (R-hat 1.955) and two T2 ensembles in lower modes (R-hat 1.974; 2.199 with per-ensemble mixtures); a
+#: shared mixture brought all four ensembles together (max R-hat 1.108 on T1, 1.084 on T2), still NOT CONVERGED:
+#: within a mode tau is 200 steps at 2000 and grew to 2700-2900 at 30 000 (48 walkers, creep coordinates, 36 min).
 FULL_SAMPLER = {
     "quick": {"moves": "mixture", "proposal": "shared", "adapt_rounds": 1, "adapt_steps": 60},
     "default": {"moves": "mixture", "proposal": "shared", "adapt_rounds": 2, "adapt_steps": 500},

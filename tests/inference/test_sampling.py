@@ -186,6 +186,8 @@ def test_sampler_option_errors():
         SamplerOptions(n_walkers=2)
     with pytest.raises(ValueError, match="tau_factor: expected a number > 0"):
         SamplerOptions(tau_factor=-1)
+    with pytest.raises(ValueError, match=r"proposal: expected one of \['own', 'shared'\]"):
+        SamplerOptions(proposal="pooled")
     problem, _ = linear_gaussian_problem(rng=1)
     with pytest.raises(ValueError, match=r"center: expected shape \(3,\)"):
         initial_walkers(problem, np.zeros(2), 8)
