@@ -65,6 +65,7 @@ __all__ = [
     "EnsembleResult",
     "PosteriorSample",
     "initial_walkers",
+    "prepare_ensemble",
     "run_ensemble",
     "sample_posterior",
 ]
@@ -657,7 +658,12 @@ def sample_posterior(
     Notes
     -----
     Worker processes are forked (POSIX), so the problem and its forward callables need not be
-    picklable; without ``fork`` the ensembles run one after another.
+    picklable; without ``fork`` the ensembles run one after another. With
+    ``options.proposal == "shared"`` (and adaptive moves) every ensemble is first pruned and adapted
+    (:func:`prepare_ensemble`), one mixture is fitted to all their last-round draws, and the
+    production runs start from the prepared walkers with that mixture. When resuming, this
+    preparation is repeated (it is deterministic, so it gives the stored mixture again) unless every
+    ensemble's checkpoint already holds its run and proposal.
     """
     rng = np.random.default_rng(rng)
     ndim = problem.ndim
