@@ -352,7 +352,10 @@ def prepare_ensemble(problem, p0, *, options: SamplerOptions, seed: int):
     and the last adaptation round's draws it was fitted to (both None without adaptation).
     Deterministic given ``seed``; :func:`sample_posterior` fits a shared proposal to all ensembles'
     draws."""
-    p0 = _prune_burn_in(problem, np.asarray(p0, dtype=float), options, seed)
+    p0 = np.asarray(p0, dtype=float)
+    if not emcee.ensemble.walkers_independent(p0):
+        raise ValidationError("initial walkers", "linearly dependent positions", "independent walkers")
+    p0 = _prune_burn_in(problem, p0, options, seed)
     if options.moves not in ADAPTIVE_MOVES:
         return p0, None, None
     mixture, start, draws = _adapt_mixture(problem, p0, options, seed)
@@ -447,9 +450,7 @@ def run_ensemble(
             backend.reset(n_walkers, ndim)
     t0 = time.perf_counter()
     if resumed_at == 0:
-        if not emcee.ensemble.walkers_independent(np.asarray(p0, dtype=float)):
-            raise ValidationError("initial walkers", "linearly dependent positions", "independent walkers")
-        if proposal is not None:
+        if proposal is not None:  # p0 comes from prepare_ensemble (checked there, then moved by the sampler)
             mixture = proposal
         else:
             p0, mixture, _ = prepare_ensemble(problem, p0, options=options, seed=seed)
