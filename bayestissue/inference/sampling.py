@@ -436,16 +436,9 @@ def run_ensemble(
     mixture = None
     group = f"ensemble_{ensemble_id}"
     if backend_path is not None:
-        backend = emcee.backends.HDFBackend(str(backend_path), name=f"ensemble_{ensemble_id}")
-        if resume and Path(backend_path).exists():
-            try:
-                resumed_at = backend.iteration
-            except (KeyError, OSError):
-                resumed_at = 0
-        if resumed_at > 0 and options.moves in ADAPTIVE_MOVES:
-            mixture = TMixture.from_hdf5(backend_path, f"{group}_proposal")
-            if mixture is None:  # killed between the adaptation and the first checkpoint
-                resumed_at = 0
+        backend = emcee.backends.HDFBackend(str(backend_path), name=group)
+        if resume:
+            resumed_at, mixture = _stored_run(backend_path, ensemble_id, options.moves in ADAPTIVE_MOVES)
         if resumed_at == 0:
             backend.reset(n_walkers, ndim)
     t0 = time.perf_counter()
@@ -616,15 +609,20 @@ def _run_tasks(problem, task, args, n_proc, progress):
     return [_task(problem, task, *a, progress) for a in args]
 
 
-def _checkpointed(path, k) -> bool:
-    """Whether ``path`` holds a started run of ensemble ``k`` with its proposal (resumable as is)."""
+def _stored_run(path, k, adaptive: bool) -> tuple[int, TMixture | None]:
+    """Steps of ensemble ``k``'s run stored in ``path`` and, for ``adaptive`` moves, its proposal:
+    ``(0, None)`` when there is nothing to resume (no file, no run, or killed between the adaptation
+    and the first checkpoint, before the proposal was stored with the chain)."""
     if path is None or not Path(path).exists():
-        return False
+        return 0, None
     try:
         n = emcee.backends.HDFBackend(str(path), name=f"ensemble_{k}", read_only=True).iteration
     except (KeyError, OSError):
-        return False
-    return n > 0 and TMixture.from_hdf5(path, f"ensemble_{k}_proposal") is not None
+        return 0, None
+    if n == 0 or not adaptive:
+        return n, None
+    mixture = TMixture.from_hdf5(path, f"ensemble_{k}_proposal")
+    return (n, mixture) if mixture is not None else (0, None)
 
 
 def sample_posterior(
@@ -691,7 +689,7 @@ def sample_posterior(
     args = [(k, p0s[k], seeds[k], options, paths[k], resume, None) for k in range(n_ens)]
     extra = [(0, 0)] * n_ens
     shared = options.proposal == "shared" and options.moves in ADAPTIVE_MOVES
-    if shared and not (resume and all(_checkpointed(paths[k], k) for k in range(n_ens))):
+    if shared and not (resume and all(_stored_run(paths[k], k, True)[0] > 0 for k in range(n_ens))):
         prepared = _run_tasks(problem, "prepare", args, n_proc, None)
         draws = np.concatenate([out[1] for out, _, _ in prepared])
         mixture = fit_t_mixture(draws, n_components=options.mixture_components, seed=seeds[0] % (2**31 - 1))
