@@ -31,6 +31,13 @@ def num(x, fmt=".3g"):
     return format(float(x), fmt)
 
 
+def likelihood_ratio(dchi2: float) -> str:
+    """:math:`\\exp(\\Delta\\chi^2 / 2)` as text, in powers of ten where it would overflow a float
+    (a short --quick run can leave the chains thousands of chi2 units above the best optimum)."""
+    half = float(dchi2) / 2.0
+    return num(np.exp(half), ".3g") if half < 700.0 else f"1e{half / np.log(10.0):.0f}"
+
+
 def short(cls):
     return {
         "identifiable": "identifiable",
@@ -246,7 +253,7 @@ def main(argv=None) -> int:
         outside = [n for j, n in enumerate(names) if not fl(c["q05"][j]) <= x1[j] <= fl(c["q95"][j])]
         w(
             f"- {lab}: chi2 lower by {num(r['chi2_calibration'] - r['chi2_final'], '.3f')} (likelihood ratio "
-            f"{num(np.exp((r['chi2_calibration'] - r['chi2_final']) / 2), '.3g')}); parameters that moved by more "
+            f"{likelihood_ratio(r['chi2_calibration'] - r['chi2_final'])}); parameters that moved by more "
             f"than a factor 2: {'; '.join(moved) or 'none'}. Best optimum outside the posterior's 90 % interval "
             f"for: {', '.join(outside) or 'none'}"
             + (
@@ -254,14 +261,14 @@ def main(argv=None) -> int:
                 f"optimum puts families 2 and 3 on different laws (ginf2 {num(x1[5])}, ginf3 {num(x1[8])}; beta2 "
                 f"{num(x1[7])}, beta3 {num(x1[10])}), which the mirror-model posterior below cannot represent (it "
                 "ties them); that posterior describes the best tied fit, and the 11-parameter model has a mode "
-                f"whose peak likelihood is {num(np.exp((r['chi2_calibration'] - r['chi2_final']) / 2), '.3g')} "
+                f"whose peak likelihood is {likelihood_ratio(r['chi2_calibration'] - r['chi2_final'])} "
                 "times higher."
                 if r["chi2_calibration"] - r["chi2_final"] > 3.84 and c.get("tied")
                 else f". The improvement exceeds the 1-df threshold 3.84 (though not chi2_11(0.95) = 19.7): the {lab} "
                 "chains, started at the calibration optimum, never reached the best optimum (posterior kappa "
                 f"{num(c['q05'][1])}-{num(c['q95'][1])} at 90 %, best optimum {num(x1[1])}), so the {lab} posterior "
                 f"below describes one mode and misses one whose peak likelihood is "
-                f"{num(np.exp((r['chi2_calibration'] - r['chi2_final']) / 2), '.3g')} times higher."
+                f"{likelihood_ratio(r['chi2_calibration'] - r['chi2_final'])} times higher."
                 if r["chi2_calibration"] - r["chi2_final"] > 3.84
                 else " (improvement below the 1-df threshold 3.84; the moves are along flat directions or onto bounds)."
             )

@@ -24,7 +24,9 @@ import math
 
 import numpy as np
 
-__all__ = ["summary_table", "table_markdown"]
+from bayestissue._validation import ValidationError
+
+__all__ = ["generating_fit", "summary_table", "table_markdown"]
 
 _EDGE, _PILE, _CONTRACT = 0.02, 0.10, 0.3
 
@@ -133,6 +135,36 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
         meta["ess_per_s_min"] = f"{report.ess_per_second():.2f}"
     cols["flags"] = np.array([";".join(f) or "-" for f in flags], dtype=str)
     return {"columns": cols, "meta": meta}
+
+
+def generating_fit(problem, idata, theta) -> dict[str, float]:
+    """How well ``theta`` (e.g. a replica's generating values, all of ``problem.names`` including the
+    noise parameters) fits the data, next to the posterior draws stored in ``idata``.
+
+    Returns the total log-likelihood :math:`\\log p(y \\mid \\theta)` (``log_lik``), the 5 %, 95 % and
+    largest total log-likelihood of the stored draws (``q05``, ``q95``, ``max``; summed over the
+    pointwise ``log_likelihood`` group), and the share of draws ``theta`` beats (``share_below``).
+
+    It tells the two readings of a generating value outside a 90 % interval apart: a log-likelihood
+    inside the draws' range means the data do not exclude ``theta`` (the interval misses it through
+    the prior's weight along a flat direction, or an unconverged chain); one far below means they do.
+    For a correct posterior of data simulated from the prior, ``theta`` and a posterior draw are
+    exchangeable, so ``share_below`` is uniform over replicas (Talts et al. 2018, arXiv:1804.06788).
+    """
+    theta = problem.canonical(np.atleast_2d(np.asarray(theta, dtype=float)))
+    if theta.shape != (1, problem.ndim):
+        raise ValidationError("theta", f"shape {theta.shape}", f"{problem.ndim} values ({', '.join(problem.names)})")
+    ll_theta = float(problem.log_likelihood(theta)[0])
+    total = sum(da.sum([d for d in da.dims if d not in ("chain", "draw")]) for da in idata.log_likelihood.values())
+    ll = np.asarray(total, dtype=float).ravel()
+    q05, q95 = np.percentile(ll, [5, 95])
+    return {
+        "log_lik": ll_theta,
+        "q05": float(q05),
+        "q95": float(q95),
+        "max": float(ll.max()),
+        "share_below": float(np.mean(ll < ll_theta)),
+    }
 
 
 def _fmt(v) -> str:

@@ -5,6 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from bayestissue._validation import ValidationError
 from bayestissue.inference import SamplerOptions, sample_posterior
 from bayestissue.inference.diagnostics import (
     ConvergenceReport,
@@ -15,7 +16,7 @@ from bayestissue.inference.diagnostics import (
 )
 from bayestissue.inference.linear import linear_gaussian_posterior, linear_gaussian_problem
 from bayestissue.inference.posterior import to_inference_data
-from bayestissue.inference.summary import summary_table, table_markdown
+from bayestissue.inference.summary import generating_fit, summary_table, table_markdown
 from bayestissue.inference.warmstart import fit_least_squares
 from bayestissue.io.results import (
     file_sha256,
@@ -151,3 +152,22 @@ def test_config_errors(tmp_path):
     unknown.write_text("[mcmc]\nseed = 1\n")
     with pytest.raises(ValueError, match=r"configuration unknown.toml sections: expected sections"):
         read_config(unknown)
+
+
+def test_generating_fit_places_the_truth_among_the_draws_and_a_moved_truth_below(small_run):
+    """Linear-Gaussian stand-in: the generating values are a typical posterior draw (flat prior), so their
+    log-likelihood lies inside the draws' range; moved by 5 posterior sd along every axis they fit far
+    worse than every draw (negative control). The draws' log-likelihood is the pointwise group summed,
+    checked against the problem's own log-likelihood of the stored draws."""
+    problem, truth, ls, sample = small_run
+    idata = to_inference_data(sample, least_squares=ls, max_draws=600, rng=0)
+    fit = generating_fit(problem, idata, truth)
+    assert fit["q05"] <= fit["log_lik"] <= fit["max"] and 0.05 < fit["share_below"] < 0.95
+    draws = np.stack([idata.posterior[n].values for n in problem.names], axis=-1).reshape(-1, problem.ndim)
+    ll = problem.log_likelihood(draws)
+    np.testing.assert_allclose([np.percentile(ll, 5), ll.max()], [fit["q05"], fit["max"]], rtol=0, atol=1e-9)
+    sd = draws.std(axis=0)
+    moved = generating_fit(problem, idata, truth + 5.0 * sd)
+    assert moved["share_below"] == 0.0 and moved["log_lik"] < fit["q05"] - 20.0
+    with pytest.raises(ValidationError, match="theta: expected 3 values"):
+        generating_fit(problem, idata, truth[:2])
