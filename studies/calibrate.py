@@ -155,8 +155,11 @@ def _recovery_lines(name, outcome) -> list[str]:
 
 def _generating_line(name, outcome) -> str | None:
     """The recovery report's line on :func:`~bayestissue.inference.summary.generating_fit` (``None``
-    without generating values or stored draws)."""
+    without generating values or stored draws; a joint run's replicas each have their own)."""
     cols, idata = outcome.table["columns"], outcome.idata
+    per_exp = [c.removeprefix("generating_") for c in cols if c.startswith("generating_")]
+    if per_exp:
+        return f"- {name}: not computed; the replicas {', '.join(per_exp)} come from different generating values"
     if "generating" not in cols or idata is None or "log_likelihood" not in idata.groups():
         return None
     gen = dict(zip(cols["parameter"], cols["generating"], strict=True))
