@@ -4,7 +4,7 @@ Stages run in order, each a script in studies/ with a ``main(argv)``; the time o
 ``--quick`` is a smoke run (CI-sized chains), ``--full`` publication-quality chains; the default fits the 20-minute
 budget on a 2-core machine.
 
-    python studies/run_study.py [--quick | --full] [--only STAGE ...]
+    python studies/run_study.py [--quick | --full] [--only STAGE ...]   # STAGE: a script or a stage name
 """
 
 from __future__ import annotations
@@ -47,13 +47,23 @@ def main(argv=None) -> int:
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true", help="smoke run (short chains)")
     mode.add_argument("--full", action="store_true", help="publication-quality chains")
-    ap.add_argument("--only", nargs="+", metavar="STAGE", help="run only these scripts (e.g. forward_figure.py)")
+    ap.add_argument(
+        "--only",
+        nargs="+",
+        metavar="STAGE",
+        help="run only these stages, by script or name (e.g. calibrate.py or calibration)",
+    )
     args = ap.parse_args(argv)
+    known = {key: script for name, script in STAGES for key in (name, script)}
+    unknown = [s for s in args.only or () if s not in known]
+    if unknown:
+        ap.error(f"--only: expected stages among {[script for _, script in STAGES]} or their names, got {unknown}")
+    only = {known[s] for s in args.only or ()}
     flags = ["--quick"] if args.quick else ["--full"] if args.full else []
     timings, failed = [], []
     t_all = time.perf_counter()
     for name, script in STAGES:
-        if args.only and script not in args.only:
+        if only and script not in only:
             continue
         print(f"\n=== stage: {name} ({script} {' '.join(flags)}) ===", flush=True)
         t0 = time.perf_counter()

@@ -1,0 +1,41 @@
+"""The study runner (studies/run_study.py, the README's main command): stage selection."""
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture()
+def runner(monkeypatch):
+    spec = importlib.util.spec_from_file_location("run_study_under_test", ROOT / "studies" / "run_study.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    ran = []
+
+    class Stage:
+        def __init__(self, script):
+            self.script = script
+
+        def main(self, flags):
+            ran.append((self.script, tuple(flags)))
+
+    monkeypatch.setattr(module, "_load", Stage)
+    return module, ran
+
+
+def test_only_selects_stages_by_script_or_name_in_study_order(runner):
+    module, ran = runner
+    assert module.main(["--quick", "--only", "report.py", "calibration"]) == 0
+    assert ran == [("calibrate.py", ("--quick",)), ("report.py", ("--quick",))]
+
+
+def test_an_unknown_stage_is_refused_by_name(runner, capsys):
+    module, ran = runner
+    with pytest.raises(SystemExit) as exc:
+        module.main(["--only", "calib"])
+    assert exc.value.code == 2 and ran == []
+    err = capsys.readouterr().err
+    assert "--only: expected stages among" in err and "'calibrate.py'" in err and "got ['calib']" in err
