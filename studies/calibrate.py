@@ -86,7 +86,7 @@ FULL_SAMPLER = {
     "full": {"moves": "mixture", "proposal": "shared"},
 }
 
-#: Step caps of the default mirror runs, within the 20-minute study budget: T1 meets the length criterion
+#: Step caps of the default mirror runs, aiming at the 20-minute study budget: T1 meets the length criterion
 #: between about 3400 and 9000 steps (one ensemble was still short at 6000); T2 (ramp coordinates) after 2100-3900
 #: steps; the joint run (ramp coordinates, 3 x 1000 adaptation) after 5400-6300 steps.
 MIRROR_CAPS = {"T1": 9000, "T2": 6000, "joint": 9000}
