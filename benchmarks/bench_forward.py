@@ -1,6 +1,6 @@
 """Forward-model speed: T1 simulations per second on one core, against a straightforward baseline in the same run.
 
-The batch: parameter sets drawn from the Table 1 box (MODEL.md) the way the default prior draws them (log-uniform
+The batch: parameter sets drawn from the Table 1 box (docs/model.md) the way the default prior draws them (log-uniform
 for the moduli and rates, uniform for gamma), seeded. The baseline: per set, per step ``scipy.optimize.root`` on the
 six equilibrium equations with a NumPy stress (bayestissue.mechanics.reference). Also the first-call compile time
 (cold numba cache, in a fresh process) and the warm-cache start-up.
@@ -22,8 +22,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from bayestissue.mechanics import PAPER_BOUNDS, PAPER_PARAMETERS, load_experiment, simulate  # noqa: E402
+from bayestissue.mechanics import load_experiment, simulate  # noqa: E402
 from bayestissue.mechanics.reference import reference_simulate_experiment  # noqa: E402
+from bayestissue.paper import PAPER_BOUNDS, PAPER_PARAMETERS  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 _STARTUP = (

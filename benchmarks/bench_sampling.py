@@ -25,11 +25,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from bayestissue.inference import MIRROR_TIES, SamplerOptions, fit_least_squares, sample_posterior  # noqa: E402
-from bayestissue.inference.calibration import CalibrationConfig, build_problem  # noqa: E402
+from bayestissue.inference import SamplerOptions, fit_least_squares, sample_posterior  # noqa: E402
 from bayestissue.inference.coordinates import adapt_coordinates  # noqa: E402
 from bayestissue.inference.diagnostics import assess_convergence  # noqa: E402
-from bayestissue.mechanics import PAPER_PARAMETERS, load_experiment, simulate  # noqa: E402
+from bayestissue.mechanics import load_experiment, simulate  # noqa: E402
+from bayestissue.paper import (
+    MIRROR_TIES,  # noqa: E402
+    PAPER_PARAMETERS,  # noqa: E402
+)
+from bayestissue.workflows import CalibrationConfig, build_problem  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 

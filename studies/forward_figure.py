@@ -16,7 +16,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from bayestissue.mechanics import PAPER_PARAMETERS, load_experiment, simulate  # noqa: E402
+from bayestissue.mechanics import load_experiment, simulate  # noqa: E402
+from bayestissue.paper import PAPER_PARAMETERS  # noqa: E402
 from bayestissue.plotting.mechanics import plot_fit_curves  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,7 +1,7 @@
 """Write the synthetic replicas of the paper's tests T1 and T2 to data/ (the measured curves are not public).
 
 T1 (creep, 10.6 kPa for 1200 s) is simulated with the paper's final T1 parameters, T2 (1.6 kPa for 240 s, then
-+3.24 kPa/min up to 852 s) with the final T2 parameters (MODEL.md Table 1), on the paper's simulation step (6 s),
++3.24 kPa/min up to 852 s) with the final T2 parameters (docs/model.md Table 1), on the paper's simulation step (6 s),
 sampled at the paper's data steps (3 s, 6 s), and given seeded Gaussian noise of sd 0.02 mm. Each data file records
 in its header that it is synthetic, the generating parameters, the seed and the noise sd.
 
@@ -18,16 +18,10 @@ import numpy as np
 
 from bayestissue import __version__
 from bayestissue.io.tables import write_table
-from bayestissue.mechanics import (
-    PAPER_PARAMETERS,
-    CreepProtocol,
-    Experiment,
-    RampProtocol,
-    param_names,
-    simulate,
-)
+from bayestissue.mechanics import CreepProtocol, Experiment, RampProtocol, param_names, simulate
+from bayestissue.paper import PAPER_PARAMETERS
 
-#: Specimens and protocols of paper Section 3.2 (MODEL.md): name -> (size mm, protocol, TOML protocol table,
+#: Specimens and protocols of paper Section 3.2 (docs/model.md): name -> (size mm, protocol, TOML protocol table,
 #: duration s, data step s, simulation step s, generating parameter set).
 REPLICAS = {
     "T1": (

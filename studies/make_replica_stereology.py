@@ -29,8 +29,8 @@ from bayestissue.io.stereology_files import (
     write_point_counts,
     write_replicates,
 )
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology import (
-    PAPER_DIRECTIONS,
     LineSystem,
     PointCounts,
     WatsonMixture,
@@ -39,7 +39,7 @@ from bayestissue.stereology import (
     stereology_replicates,
     surs_indices,
 )
-from bayestissue.stereology.phantom import clip_segment_to_box
+from bayestissue.stereology.micrographs.phantom import clip_segment_to_box
 
 ROOT = Path(__file__).resolve().parents[1]
 

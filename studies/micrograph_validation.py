@@ -26,18 +26,18 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from bayestissue.cli.micrographs import analyse_micrographs
 from bayestissue.plotting.micrographs import plot_overlay
 from bayestissue.stereology.axial import axial_angle, fit_watson_mixture
-from bayestissue.stereology.gridcount import count_points
-from bayestissue.stereology.phantom import SMC, PhantomOptions, _ellipsoid_voxels, make_phantom
-from bayestissue.stereology.registration import displacement_error_px
-from bayestissue.stereology.render import render_sections, section_phantom, stack_frame
+from bayestissue.stereology.micrographs import analyse_micrographs
+from bayestissue.stereology.micrographs.gridcount import count_points
+from bayestissue.stereology.micrographs.phantom import SMC, PhantomOptions, _ellipsoid_voxels, make_phantom
+from bayestissue.stereology.micrographs.registration import displacement_error_px
+from bayestissue.stereology.micrographs.render import render_sections, section_phantom, stack_frame
+from bayestissue.stereology.micrographs.segmentation import confusion_matrix, label_fractions
+from bayestissue.stereology.micrographs.tracing import trace_cells
 from bayestissue.stereology.replicates import direction_bootstrap, fraction_replicates
 from bayestissue.stereology.rose import lambert_project
 from bayestissue.stereology.sections import surs_indices
-from bayestissue.stereology.segmentation import confusion_matrix, label_fractions
-from bayestissue.stereology.tracing import trace_cells
 from bayestissue.stereology.uncertainty import align_axes
 
 FIG = Path(__file__).resolve().parents[1] / "figures"

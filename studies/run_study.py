@@ -37,7 +37,6 @@ STAGES = (
 def _load(script: str):
     spec = importlib.util.spec_from_file_location(script[:-3], HERE / script)
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses (and pickling for the dask workers) look the module up here
     spec.loader.exec_module(module)
     return module
 

@@ -23,14 +23,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.plotting.stereology import (  # noqa: E402
     plot_ce_check,
     plot_lambert_directions,
     plot_rose_3d,
     plot_rose_histogram,
 )
-from bayestissue.stereology import (  # noqa: E402
-    PAPER_DIRECTIONS,
+from bayestissue.stereology import (
     LineSystem,
     PointCounts,
     TwoBallPhantom,

@@ -11,7 +11,6 @@ differences (a per-specimen stiffness scale). Writes figures/t1_vs_t2_*.png and 
 from __future__ import annotations
 
 import json
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -22,10 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.stats import chi2 as chi2_dist  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import identifiability as ids  # noqa: E402
-from calibrate import mirror_coordinates  # noqa: E402
-
+import bayestissue.workflows.identifiability as ids  # noqa: E402
 from bayestissue.identifiability import (  # noqa: E402
     analyse_sensitivities,
     bhattacharyya,
@@ -40,23 +36,13 @@ from bayestissue.identifiability import (  # noqa: E402
     scaled_sensitivities,
     tension,
 )
-from bayestissue.identifiability.calibration import (  # noqa: E402
+from bayestissue.io.figures import save_figure  # noqa: E402
+from bayestissue.mechanics import simulate  # noqa: E402
+from bayestissue.paper import (
     MIRROR_TIES,
+    PAPER_BOUNDS,  # noqa: E402
     PAPER_HALF_ANGLE_DEG,
-    CalibrationTask,
-    ExperimentResiduals,
-    drop_stuck_draws,
-    run_calibration,
 )
-from bayestissue.identifiability.propagate import (  # noqa: E402
-    half_angles_deg,
-    interval_width,
-    pool_draws,
-    replicate_tissues,
-)
-from bayestissue.identifiability.scenarios import ramp_scenario, synthetic_replica  # noqa: E402
-from bayestissue.inference import paper_parameter_set  # noqa: E402
-from bayestissue.mechanics import PAPER_BOUNDS, simulate  # noqa: E402
 from bayestissue.parallel import fan_out  # noqa: E402
 from bayestissue.plotting.identifiability import (  # noqa: E402
     plot_corner_overlay,
@@ -65,6 +51,21 @@ from bayestissue.plotting.identifiability import (  # noqa: E402
     plot_rate_study,
     plot_widths,
 )
+from bayestissue.workflows import (
+    CalibrationTask,
+    ExperimentResiduals,
+    drop_stuck_draws,
+    paper_parameter_set,  # noqa: E402
+    run_task,
+)
+from bayestissue.workflows.calibration import mirror_coordinates  # noqa: E402
+from bayestissue.workflows.propagate import (  # noqa: E402
+    half_angles_deg,
+    interval_width,
+    pool_draws,
+    replicate_tissues,
+)
+from bayestissue.workflows.scenarios import ramp_scenario, synthetic_replica  # noqa: E402
 
 NAMES = ids.NAMES
 VISC = ("gamma2", "beta2", "gamma3", "beta3")
@@ -177,7 +178,7 @@ def replicate_tasks(args, cal, e1, e2):
 
 
 def main(argv=None) -> int:
-    args = ids.parse_args(argv, description=__doc__)
+    args = ids.parse_args(argv, __doc__, root=Path(__file__).resolve().parents[1])
     m = args.mode
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -249,7 +250,7 @@ def main(argv=None) -> int:
                 max_nfev=m.ls_nfev,
             ),
         ]
-        outs = fan_out(run_calibration, spec_tasks + rtasks, cache_dir=args.cache_dir, client=client, salt=ids.SALT)
+        outs = fan_out(run_task, spec_tasks + rtasks, cache_dir=args.cache_dir, client=client, salt=ids.SALT)
     finally:
         ids.close_client(client)
     T.stage("summaries + figures")
@@ -302,10 +303,10 @@ def main(argv=None) -> int:
         )
 
     # ---- figures
-    ids.savefig(plot_marginals_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_marginals.png")
+    save_figure(plot_marginals_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_marginals.png")
     if m.corners:
         js = ids.distinct(cal["T1"])
-        ids.savefig(
+        save_figure(
             plot_corner_overlay({"T1": cal["T1"].u[:, js], "T2": cal["T2"].u[:, js]}, [NAMES[j] for j in js]),
             out / "t1_vs_t2_corner.png",
         )
@@ -328,7 +329,7 @@ def main(argv=None) -> int:
             title=f"{tgt} data, predicted from the {src} posterior",
         )
     fig.tight_layout()
-    ids.savefig(fig, out / "t1_vs_t2_cross_prediction.png")
+    save_figure(fig, out / "t1_vs_t2_cross_prediction.png")
     marks = {}
     for p in ("beta2", "beta3"):
         row = []
@@ -336,9 +337,9 @@ def main(argv=None) -> int:
             pr = rates["profiles"].get(f)
             row.append(-1 if pr is None else int(pr[p] == "identifiable"))
         marks[p] = np.array(row)
-    ids.savefig(plot_rate_study(rates["factors"], rates["se_log"], marks=marks), out / "t1_vs_t2_rates.png")
+    save_figure(plot_rate_study(rates["factors"], rates["se_log"], marks=marks), out / "t1_vs_t2_rates.png")
     if cut:
-        ids.savefig(
+        save_figure(
             plot_widths(
                 {
                     "T1 one replicate (mean)": cut["T1"]["within_width"],
@@ -350,7 +351,7 @@ def main(argv=None) -> int:
             ),
             out / "t1_vs_t2_stereology_widths.png",
         )
-        ids.savefig(
+        save_figure(
             plot_marginals_overlay(
                 {"T1": cut["T1"]["pooled"], "T2": cut["T2"]["pooled"]},
                 NAMES,
@@ -384,7 +385,7 @@ def main(argv=None) -> int:
         },
     }
     summary["timings_s"] = T.done()
-    (out / "t1_vs_t2_summary.json").write_text(json.dumps(ids._f(summary), indent=1))
+    (out / "t1_vs_t2_summary.json").write_text(json.dumps(ids.json_safe(summary), indent=1))
     print(f"  wrote {out / 't1_vs_t2_summary.json'}")
     return 0
 

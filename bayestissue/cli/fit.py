@@ -21,7 +21,7 @@ def register(subparsers) -> None:
         description=__doc__.splitlines()[0].split(": ", 1)[1],
     )
     p.add_argument("experiments", nargs="+", metavar="EXPERIMENT", help="experiment files (TOML)")
-    p.add_argument("--config", help="calibration configuration (TOML; see bayestissue/io/results.py)")
+    p.add_argument("--config", help="calibration configuration (TOML; see bayestissue/workflows/config.py)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--resume", action="store_true", help="continue the checkpointed sampler runs")
     p.add_argument("--seed", type=int, help="master seed (overrides the configuration)")
@@ -41,13 +41,12 @@ QUICK_SAMPLER = {
 
 
 def run(args) -> int:
-    from bayestissue.inference.calibration import config_from_mapping, run_calibration
     from bayestissue.inference.summary import table_markdown
-    from bayestissue.io.results import provenance, read_config
+    from bayestissue.io.results import provenance
     from bayestissue.mechanics import load_experiment
+    from bayestissue.workflows import load_config, run_calibration
 
     t0 = time.perf_counter()
-    cfg_map = read_config(args.config)
     over = {}
     if args.seed is not None:
         over["seed"] = args.seed
@@ -55,7 +54,7 @@ def run(args) -> int:
         over["sample"] = False
     if args.quick:
         over.update(n_starts=2, ls_max_nfev=200, sampler=QUICK_SAMPLER)
-    config = config_from_mapping(cfg_map, **over)
+    config = load_config(args.config, **over)
     experiments = [load_experiment(p) for p in args.experiments]
     data_paths = []
     for p, e in zip(args.experiments, experiments, strict=True):

@@ -18,110 +18,25 @@ import argparse
 import json
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from bayestissue._validation import ValidationError, check_positive
+from bayestissue._validation import ValidationError
 from bayestissue.io.micrographs import read_micrographs, write_micrographs, write_truth
 from bayestissue.io.stereology_files import write_line_system
 from bayestissue.io.tables import write_table
-from bayestissue.stereology.gridcount import COMPONENTS, GridCounts, count_points, write_grid_counts
-from bayestissue.stereology.lines import LineSystem
-from bayestissue.stereology.phantom import SMC, PhantomOptions, make_phantom
-from bayestissue.stereology.registration import RegisteredStack, register_stack, rigid_params
-from bayestissue.stereology.render import StainOptions, render_sections
-from bayestissue.stereology.sections import PointCounts, surs_indices
-from bayestissue.stereology.segmentation import (
-    Segmentation,
+from bayestissue.stereology.micrographs.gridcount import write_grid_counts
+from bayestissue.stereology.micrographs.phantom import PhantomOptions, make_phantom
+from bayestissue.stereology.micrographs.pipeline import analyse_micrographs
+from bayestissue.stereology.micrographs.registration import rigid_params
+from bayestissue.stereology.micrographs.render import StainOptions, render_sections
+from bayestissue.stereology.micrographs.segmentation import (
     check_rgb_stack,
     label_fractions,
-    segment_stack,
-    threshold_sensitivity,
 )
-from bayestissue.stereology.tracing import TracedCells, trace_cells
 
-__all__ = ["register", "run", "MicrographAnalysis", "analyse_micrographs", "write_phantom_stack"]
-
-
-@dataclass
-class MicrographAnalysis:
-    """Everything :func:`analyse_micrographs` produced, for writing or further analysis."""
-
-    registered: RegisteredStack
-    segmentation: Segmentation
-    sensitivity: list
-    grid: GridCounts
-    traced: TracedCells
-    pixel_um: float
-    thickness_um: float
-
-    def point_counts(self) -> PointCounts:
-        """The grid counts as the stereology :class:`PointCounts` (reference = tissue)."""
-        return PointCounts(
-            self.grid.section,
-            self.grid.counts,
-            COMPONENTS,
-            ("cavity",),
-            grid_spacing_um=self.grid.spacing_px * self.pixel_um,
-        )
-
-    def line_system(self) -> LineSystem:
-        """The traced segments as the stereology :class:`LineSystem`."""
-        s = self.traced.segments_um
-        return LineSystem(s[:, 0], s[:, 1], self.traced.cell_id, self.traced.volume_um3)
-
-
-def analyse_micrographs(
-    images,
-    *,
-    pixel_um: float,
-    thickness_um: float,
-    grid_spacing_um: float = 10.0,
-    period: int = 2,
-    method: str = "deconvolution",
-    rng=None,
-    progress=None,
-) -> MicrographAnalysis:
-    """Run the pipeline: register, segment, count the point grid on a SURS sample, trace cells.
-
-    Parameters
-    ----------
-    images : (n, H, W, 3) RGB serial sections (all the same size).
-    pixel_um, thickness_um : pixel size and section thickness in um (required: no default is safe).
-    grid_spacing_um : spacing of the point grid; period : every ``period``-th section is counted
-        (random start).
-    method : colour segmentation method ("deconvolution" or "lab").
-    rng : seed or Generator (SURS start, grid offsets, k-means starts).
-    progress : optional callable(n_done) (e.g. ``tqdm.update``).
-    """
-    rng = np.random.default_rng(rng)
-    if pixel_um is None:
-        raise ValidationError("pixel_um", None, "the pixel size in um (e.g. from the microscope)")
-    if thickness_um is None:
-        raise ValidationError("thickness_um", None, "the section thickness in um")
-    pixel_um = check_positive("pixel_um", pixel_um)
-    thickness_um = check_positive("thickness_um", thickness_um)
-    grid_spacing_um = check_positive("grid_spacing_um", grid_spacing_um)
-    imgs = check_rgb_stack(images)
-    step = progress or (lambda k: None)
-    reg = register_stack(imgs, progress=step)
-    seg = segment_stack(reg.images, method=method, valid=reg.valid)
-    sens = threshold_sensitivity(reg.images, seg, valid=reg.valid)
-    step(1)
-    sections = surs_indices(len(imgs), min(int(period), len(imgs)), rng=rng)
-    grid = count_points(
-        seg.labels,
-        spacing_px=grid_spacing_um / pixel_um,
-        sections=sections,
-        valid=reg.valid,
-        rng=rng,
-    )
-    step(1)
-    traced = trace_cells(seg.labels == SMC, spacing_um=(thickness_um, pixel_um, pixel_um), valid=reg.valid, rng=rng)
-    step(1)
-    return MicrographAnalysis(reg, seg, sens, grid, traced, pixel_um, thickness_um)
+__all__ = ["register", "run", "write_phantom_stack"]
 
 
 def write_phantom_stack(outdir, *, seed=None, options=None, thickness_um=5.0, axis="z", fmt="png"):

@@ -14,7 +14,7 @@ def register(subparsers) -> None:
         "simulate",
         help="simulate an experiment file and print or write the displacement curve",
         description="Simulate EXPERIMENT (a TOML experiment file) with the given material parameters. "
-        "Parameters not given keep the paper's initial guess (MODEL.md Table 1).",
+        "Parameters not given keep the paper's initial guess (docs/model.md Table 1).",
     )
     p.add_argument("experiment", help="experiment file (TOML), e.g. data/T1.toml")
     p.add_argument(
@@ -35,7 +35,8 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from bayestissue.io.tables import write_table
-    from bayestissue.mechanics import PAPER_PARAMETERS, load_experiment, parse_parameters, simulate
+    from bayestissue.mechanics import load_experiment, parse_parameters, simulate
+    from bayestissue.paper import PAPER_PARAMETERS
 
     exp = load_experiment(args.experiment)
     names = exp.tissue.param_names

@@ -1,8 +1,7 @@
 """Identifiability: local sensitivities and collinearity, profile likelihoods,
-posterior-versus-prior measures, and the comparison of experiments (tension, cross-prediction), plus
-the propagation of stereological uncertainty.
+posterior-versus-prior measures, and the comparison of experiments (tension, cross-prediction).
 
-Layer: imports mechanics and inference, never plotting or cli.
+Layer: array functions; imports inference only, never mechanics, workflows, plotting or cli.
 """
 
 from bayestissue.identifiability.compare import (
@@ -28,12 +27,11 @@ from bayestissue.identifiability.profile import (
     CHI2_1_95,
     ProfileOptions,
     ProfileResult,
-    ProfileSet,
     classify_profile,
-    fit_least_squares,
-    profile_all,
+    fit_residuals,
     profile_likelihood,
 )
+from bayestissue.identifiability.restarts import ProfileSet, profile_all
 from bayestissue.identifiability.sensitivity import (
     SensitivityAnalysis,
     analyse_sensitivities,
@@ -60,7 +58,7 @@ __all__ = [
     "contraction",
     "correlation_matrix",
     "coverage",
-    "fit_least_squares",
+    "fit_residuals",
     "gaussian_loglik",
     "informed_directions",
     "kl_divergence",

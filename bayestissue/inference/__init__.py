@@ -14,7 +14,7 @@ from bayestissue.inference.likelihood import (
     StudentTNoise,
     make_noise,
 )
-from bayestissue.inference.parameters import MIRROR_TIES, ParameterSet, ParameterSpec, paper_parameter_set
+from bayestissue.inference.parameters import ParameterSet, ParameterSpec
 from bayestissue.inference.priors import PRIORS, LogUniformPrior, UniformPrior
 from bayestissue.inference.problem import CalibrationProblem, ExperimentTerm
 from bayestissue.inference.sampling import (
@@ -33,7 +33,6 @@ from bayestissue.inference.warmstart import (
 )
 
 __all__ = [
-    "MIRROR_TIES",
     "AR1Noise",
     "CalibrationProblem",
     "ConvergenceReport",
@@ -57,7 +56,6 @@ __all__ = [
     "fit_multistart",
     "initial_walkers",
     "make_noise",
-    "paper_parameter_set",
     "run_ensemble",
     "sample_posterior",
 ]

@@ -34,7 +34,7 @@ an affine image of a simple density. Two systems:
     R-hat 1.019-1.066 at 6000 steps) to 20-25 (R-hat 1.0004 after 2100-3900 steps).
 
 The creep coordinates linearise a homogeneous incompressible uniaxial stretch :math:`\\lambda_r`
-(the secant of the data's typical stretch). The nominal stresses of the matrix (MODEL.md) and of a
+(the secant of the data's typical stretch). The nominal stresses of the matrix (docs/model.md) and of a
 tension fibre :math:`k` are then
 
 .. math::
@@ -91,17 +91,10 @@ from scipy.special import expit
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference.parameters import ParameterSet
 
-__all__ = ["COORDINATES", "CreepCoordinates", "RampCoordinates", "make_coordinates", "reference_stretch"]
+__all__ = ["COORDINATES", "CreepCoordinates", "RampCoordinates", "make_coordinates"]
 
 #: Coordinate systems the sampler can move in.
 COORDINATES = ("box", "creep", "ramp")
-
-
-def reference_stretch(experiments) -> float:
-    """The data's typical stretch :math:`\\lambda_r = 1 + \\overline{u}/L_x`: the mean observed
-    displacement over the length, averaged over the experiments (at least 1.05)."""
-    vals = [1.0 + float(np.mean(np.abs(e.observed))) / float(e.forward.experiment.specimen_mm[0]) for e in experiments]
-    return max(float(np.mean(vals)), 1.05)
 
 
 class CreepCoordinates:
@@ -225,8 +218,10 @@ class CreepCoordinates:
 def make_coordinates(kind: str, problem) -> object:
     """The coordinates ``kind`` (one of :data:`COORDINATES`) for a calibration problem.
 
-    ``creep`` and ``ramp`` use fibre family 2's law (``ginf2``, ``gamma2``, ``beta2``); ``creep`` with every
-    family tied to it, the tissue of the first experiment and :func:`reference_stretch` of the data.
+    ``creep`` and ``ramp`` use fibre family 2's law (``ginf2``, ``gamma2``, ``beta2``); ``creep`` needs the
+    problem's ``geometry`` (plain numbers the caller derives from its model: the reference ``stretch``,
+    ``phi_matrix`` and the ``fibres`` ``(phi_k, v_k)`` that use the law; see
+    :func:`bayestissue.workflows.problem.creep_geometry`).
     """
     if kind not in COORDINATES:
         raise ValidationError("sampler coordinates", kind, f"one of {list(COORDINATES)}")
@@ -234,21 +229,11 @@ def make_coordinates(kind: str, problem) -> object:
         return problem.parameters
     if kind == "ramp":
         return RampCoordinates(problem.parameters)
-    if not all(hasattr(e.forward, "experiment") for e in problem.experiments):
-        raise ValidationError("sampler coordinates", kind, "'box' for experiments without a mechanics forward model")
-    tissue = problem.experiments[0].forward.experiment.tissue
-    tied = problem.material.tied
-    fibres = [
-        (tissue.phi_fibres[k], tissue.directions[k])
-        for k in range(tissue.n_fibres)
-        if f"ginf{k + 1}" == "ginf2" or tied.get(f"ginf{k + 1}") == "ginf2"
-    ]
-    return CreepCoordinates(
-        problem.parameters,
-        stretch=reference_stretch(problem.experiments),
-        phi_matrix=tissue.phi_matrix,
-        fibres=fibres,
-    )
+    if problem.geometry is None:
+        raise ValidationError(
+            "sampler coordinates", kind, "'box' or 'ramp' for a problem without geometry (stretch, phi_matrix, fibres)"
+        )
+    return CreepCoordinates(problem.parameters, **problem.geometry)
 
 
 class RampCoordinates:

@@ -48,7 +48,7 @@ __all__ = [
 
 
 def import_arviz():
-    """Import arviz with its once-a-day refactor FutureWarning silenced (see DEPENDENCIES.md)."""
+    """Import arviz with its once-a-day refactor FutureWarning silenced (see docs/dependencies.md)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FutureWarning)
         import arviz as az

@@ -80,9 +80,6 @@ class NoiseModel:
             specs.append(ParameterSpec(f"sigma_{tag}", "mm", lo, hi, prior="loguniform"))
         return tuple(specs) + self._extra_specs(tag)
 
-    def n_nuisance(self) -> int:
-        return len(self.nuisance_specs("x", [0.0, 1.0]))
-
     def _sd(self, nuisance: np.ndarray) -> np.ndarray:
         """``(n_sets, 1)`` sd from the nuisance block (or the known sd)."""
         if self.sd is not None:

@@ -40,12 +40,7 @@ from scipy.special import expit, log_expit, logit
 from bayestissue._validation import ValidationError, check_finite
 from bayestissue.inference.priors import PRIORS, BoxPrior, make_prior
 
-__all__ = ["ParameterSpec", "ParameterSet", "SCALES", "paper_parameter_set", "MIRROR_TIES"]
-
-#: The mirror-symmetric model's ties: fibre family 3 takes family 2's law (pairs ``(name, target)``;
-#: ``dict(MIRROR_TIES)`` for :meth:`ParameterSet.updated`). Families 2 and 3 are mirror images about the
-#: loading axis, so a uniaxial displacement cannot tell them apart.
-MIRROR_TIES = (("ginf3", "ginf2"), ("gamma3", "gamma2"), ("beta3", "beta2"))
+__all__ = ["ParameterSpec", "ParameterSet", "SCALES"]
 
 #: Scalings of the box before the logit: ``linear`` (g(x) = x) or ``log`` (g(x) = log x, needs lower
 # > 0).
@@ -173,10 +168,6 @@ class ParameterSet:
     @property
     def sampled_names(self) -> tuple[str, ...]:
         return tuple(s.name for s in self.sampled)
-
-    @property
-    def fixed_names(self) -> tuple[str, ...]:
-        return tuple(s.name for s in self.specs if s.fixed)
 
     @property
     def tied(self) -> dict[str, str]:
@@ -406,10 +397,6 @@ class ParameterSet:
         total = np.sum(const - np.where(is_lu, logx, 0.0), axis=-1)
         return np.where(inside, total, -np.inf)
 
-    def log_prior_unconstrained(self, z) -> np.ndarray:
-        """Prior log-density of ``z``: :math:`\\log p(x(z)) + \\log|dx/dz|`."""
-        return self.log_prior(self.from_unconstrained(z)) + self.log_abs_det_jacobian(z)
-
     def sample_prior(self, n: int, *, rng=None) -> np.ndarray:
         """``n`` independent prior draws of the sampled parameters, shape ``(n, n_sampled)``."""
         rng = np.random.default_rng(rng)
@@ -432,49 +419,3 @@ class ParameterSet:
             }
             for s in self.specs
         ]
-
-
-def paper_parameter_set(
-    n_fibres: int = 3, *, prior: str = "default", fixed_inputs: Mapping | None = None
-) -> ParameterSet:
-    """The paper's parameters with Table 1 bounds and the paper's initial guess as ``value``.
-
-    Parameters
-    ----------
-    n_fibres : number of fibre systems (3 in the paper: 2 + 3 n_f parameters).
-    prior : ``"default"`` (log-uniform for the positive scale parameters mu, kappa, ginf_k, beta_k
-    and uniform
-        for gamma_k) or ``"uniform"`` (uniform on the box for all: the literal reading of the
-        paper's constraints).
-    fixed_inputs : recorded non-parameter inputs (volume fractions, directions, K, eps0).
-
-    References
-    ----------
-    Paper Section 3.2 and Table 1; bounds and initial guess from
-    ``bayestissue.mechanics.PAPER_BOUNDS`` and ``PAPER_PARAMETERS["initial"]``.
-    """
-    from bayestissue.mechanics import PAPER_BOUNDS, PAPER_PARAMETERS, PARAM_UNITS, param_names
-
-    if prior not in ("default", "uniform"):
-        raise ValidationError("prior", prior, "'default' or 'uniform'")
-    names = param_names(n_fibres)
-    bounds = np.asarray(PAPER_BOUNDS, dtype=float)
-    init = np.asarray(PAPER_PARAMETERS["initial"], dtype=float)
-    if bounds.shape[0] != len(names):
-        raise ValidationError("n_fibres", n_fibres, f"{(bounds.shape[0] - 2) // 3} (Table 1)")
-    specs = []
-    for i, name in enumerate(names):
-        prefix = name.rstrip("0123456789")
-        p = "uniform" if (prior == "uniform" or prefix == "gamma") else "loguniform"
-        specs.append(
-            ParameterSpec(
-                name=name,
-                unit=PARAM_UNITS[prefix],
-                lower=bounds[i, 0],
-                upper=bounds[i, 1],
-                prior=p,
-                scale="linear" if prefix == "gamma" else "log",
-                value=init[i],
-            )
-        )
-    return ParameterSet(tuple(specs), dict(fixed_inputs or {}))

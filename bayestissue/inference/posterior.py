@@ -48,6 +48,7 @@ def to_inference_data(
     max_draws: int = 4000,
     n_predictive: int = 400,
     attrs: Mapping | None = None,
+    rhat: Mapping[str, float] | None = None,
     rng=None,
 ):
     """Build the ``InferenceData`` of a :class:`~bayestissue.inference.sampling.PosteriorSample`.
@@ -59,6 +60,9 @@ def to_inference_data(
     max_draws : cap on the total number of posterior draws kept (further thinning, evenly).
     n_predictive : approximate number of draws in ``posterior_predictive``.
     attrs : global attributes (provenance).
+    rhat : between-ensemble R-hat per sampled parameter, stored as the variable's ``rhat_ensembles`` attribute.
+        Each tied parameter is listed in its target variable's ``tied`` attribute (a list of names), so that
+        a reader expands the draws without parsing text (``parameters_tied`` keeps the ties readable).
     rng : seed or Generator for the predictive noise.
     """
     az = import_arviz()
@@ -156,4 +160,8 @@ def to_inference_data(
     }
     for group in idata.groups():
         getattr(idata, group).attrs.update(info)
+    for name, value in (rhat or {}).items():
+        idata.posterior[name].attrs["rhat_ensembles"] = float(value)
+    for name, target in problem.material.tied.items():
+        idata.posterior[target].attrs.setdefault("tied", []).append(name)
     return idata

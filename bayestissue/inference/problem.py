@@ -5,8 +5,8 @@ knows nothing about mechanics. Each experiment brings a *forward* callable
 
     ``forward(params) -> predictions``,  ``params`` ``(n_sets, n_material)`` -> ``(n_sets, n_obs)``,
 
-with a NaN row for a parameter set whose solve failed (``functools.partial(mechanics.simulate,
-experiment)`` is one). ``n_material`` counts all material parameters, fixed ones included, in the
+with a NaN row for a parameter set whose solve failed (:class:`bayestissue.mechanics.ForwardModel`
+of an experiment is one). ``n_material`` counts all material parameters, fixed ones included, in the
 order of the material :class:`~bayestissue.inference.parameters.ParameterSet`.
 
 The sampled vector ``theta`` is the sampled material parameters followed by each experiment's
@@ -104,8 +104,10 @@ class CalibrationProblem:
         Material parameters (the forward models' inputs), sampled and fixed.
     exchangeable : two parameter groups whose exchange leaves the likelihood unchanged (see
         :meth:`log_prior`).
-    coordinates : the sampler's coordinate system, ``box`` or ``creep``
+    coordinates : the sampler's coordinate system, ``box``, ``creep`` or ``ramp``
         (:mod:`bayestissue.inference.coordinates`).
+    geometry : plain numbers the ``creep`` coordinates need (``stretch``, ``phi_matrix``, ``fibres``), given by
+        the caller that knows the forward model (:func:`bayestissue.workflows.problem.creep_geometry`).
 
     Attributes
     ----------
@@ -123,6 +125,7 @@ class CalibrationProblem:
         *,
         exchangeable: Sequence[Sequence[str]] | None = None,
         coordinates: str = "box",
+        geometry: dict | None = None,
     ):
         experiments = tuple(experiments)
         if not experiments or not all(isinstance(e, ExperimentTerm) for e in experiments):
@@ -157,6 +160,7 @@ class CalibrationProblem:
             self.exchangeable = tuple(np.array([names.index(n) for n in g]) for g in groups)
         self.n_evaluations = 0
         self.n_failed = 0
+        self.geometry = geometry
         #: the sampler's coordinate system (:mod:`bayestissue.inference.coordinates`)
         self.coordinates = make_coordinates(coordinates, self)
 
@@ -196,14 +200,11 @@ class CalibrationProblem:
 
     # ---- forward and likelihood
     # --------------------------------------------------------------------
-    def predict_material(self, theta_material) -> list[np.ndarray]:
-        """Predictions per experiment from the sampled *material* parameters ``(n_sets,
-        n_material)``."""
-        tm = np.atleast_2d(np.asarray(theta_material, dtype=float))
-        full = self.material.expand(tm)
+    def _checked(self, preds: list, n_sets: int) -> list[np.ndarray]:
+        """Forward outputs as ``(n_sets, n_obs_e)`` arrays, shape-checked; counts evaluations and failures."""
         out = []
-        for e in self.experiments:
-            pred = np.asarray(e.forward(full), dtype=float).reshape(full.shape[0], -1)
+        for e, raw in zip(self.experiments, preds, strict=True):
+            pred = np.asarray(raw, dtype=float).reshape(n_sets, -1)
             if pred.shape[1] != e.observed.size:
                 raise ValidationError(
                     f"experiment {e.name} forward output",
@@ -212,9 +213,19 @@ class CalibrationProblem:
                 )
             out.append(pred)
         ok = np.all([np.all(np.isfinite(p), axis=1) for p in out], axis=0)
-        self.n_evaluations += int(full.shape[0])
+        self.n_evaluations += int(n_sets)
         self.n_failed += int(np.count_nonzero(~ok))
         return out
+
+    def predict_material(self, theta_material) -> list[np.ndarray]:
+        """Predictions per experiment from the sampled *material* parameters ``(n_sets,
+        n_material)``."""
+        tm = np.atleast_2d(np.asarray(theta_material, dtype=float))
+        full = self.material.expand(tm)
+        preds = []
+        for e in self.experiments:
+            preds.append(e.forward(full))
+        return self._checked(preds, full.shape[0])
 
     def predict(self, theta) -> list[np.ndarray]:
         """Predictions per experiment, each ``(n_sets, n_obs_e)`` (NaN rows for failed solves)."""
@@ -226,24 +237,37 @@ class CalibrationProblem:
         theta, _ = self._batch(theta)
         return theta[:, self._nuis_slices[k]]
 
+    def _pointwise(self, theta, preds) -> list[np.ndarray]:
+        out = []
+        for k, (e, pred) in enumerate(zip(self.experiments, preds, strict=False)):
+            resid = pred - e.observed
+            with np.errstate(invalid="ignore", over="ignore"):
+                ll = e.noise.loglik_pointwise(resid, theta[:, self._nuis_slices[k]])
+            ll[~np.isfinite(ll)] = -np.inf
+            out.append(ll)
+        return out
+
     def log_likelihood_pointwise(self, theta, predictions=None) -> list[np.ndarray]:
         """Pointwise log-likelihood per experiment, each ``(n_sets, n_obs_e)``; ``-inf`` for failed
         rows."""
         theta, _ = self._batch(theta)
         preds = self.predict(theta) if predictions is None else predictions
-        out = []
-        for k, (e, pred) in enumerate(zip(self.experiments, preds, strict=False)):
-            resid = pred - e.observed
-            with np.errstate(invalid="ignore", over="ignore"):
-                ll = e.noise.loglik_pointwise(resid, self.nuisance(theta, k))
-            ll[~np.isfinite(ll)] = -np.inf
-            out.append(ll)
-        return out
+        return self._pointwise(theta, preds)
 
     def log_likelihood(self, theta) -> np.ndarray:
-        """Total log-likelihood ``(n_sets,)`` (a float for a 1-D ``theta``)."""
+        """Total log-likelihood ``(n_sets,)`` (a float for a 1-D ``theta``).
+
+        The sampler's hot path: the forward models are called from here directly (no intermediate frames), so
+        the stack from emcee to the kernel is log_posterior_unconstrained -> log_posterior -> log_likelihood ->
+        forward.
+        """
         theta, single = self._batch(theta)
-        total = sum(ll.sum(axis=1) for ll in self.log_likelihood_pointwise(theta))
+        full = self.material.expand(theta[:, : self.n_material])
+        preds = []
+        for e in self.experiments:
+            preds.append(e.forward(full))
+        preds = self._checked(preds, full.shape[0])
+        total = sum(ll.sum(axis=1) for ll in self._pointwise(theta, preds))
         return float(total[0]) if single else total
 
     def canonical(self, theta) -> np.ndarray:

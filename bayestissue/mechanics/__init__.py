@@ -1,7 +1,8 @@
-"""Mechanics: the composite constitutive model and the reduced FE model of the uniaxial tests (MODEL.md)."""
+"""Mechanics: the composite constitutive model and the reduced FE model of the uniaxial tests (docs/model.md)."""
 
 from bayestissue.mechanics.experiment import Experiment, load_experiment
 from bayestissue.mechanics.fibres import KelvinFibres
+from bayestissue.mechanics.forward import ForwardModel, SimulationResult, simulate
 from bayestissue.mechanics.kinematics import STRAIN_COMPONENTS
 from bayestissue.mechanics.protocols import (
     PROTOCOLS,
@@ -9,17 +10,11 @@ from bayestissue.mechanics.protocols import (
     MeasuredForceProtocol,
     RampProtocol,
 )
-from bayestissue.mechanics.simulate import SimulationResult, simulate
 from bayestissue.mechanics.tissue import (
-    PAPER_BOUNDS,
-    PAPER_DIRECTIONS,
-    PAPER_PARAMETERS,
     PAPER_TISSUE,
-    PARAM_UNITS,
     TissueConfig,
     check_parameters,
     param_names,
-    param_unit,
     parse_parameters,
 )
 
@@ -32,16 +27,12 @@ __all__ = [
     "CreepProtocol",
     "RampProtocol",
     "MeasuredForceProtocol",
+    "ForwardModel",
     "SimulationResult",
     "simulate",
-    "PAPER_BOUNDS",
-    "PAPER_DIRECTIONS",
-    "PAPER_PARAMETERS",
     "PAPER_TISSUE",
-    "PARAM_UNITS",
     "TissueConfig",
     "check_parameters",
     "param_names",
-    "param_unit",
     "parse_parameters",
 ]

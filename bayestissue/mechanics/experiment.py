@@ -26,7 +26,7 @@ Experiment file format (TOML, with a CSV data file beside it)::
     # duration_s = 1200.0
     # step_s = 3.0
 
-    [tissue]                              # optional; defaults are the paper's (MODEL.md)
+    [tissue]                              # optional; defaults are the paper's (docs/model.md)
     directions = [[0, 1, 0], [0.9369, 0.342, 0], [0.9369, -0.342, 0]]
     phi_fibres = [0.2, 0.2, 0.2]
     phi_matrix = 0.4

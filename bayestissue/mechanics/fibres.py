@@ -1,6 +1,6 @@
 r"""Viscoelastic, tension-only fibres: the 3-parameter Kelvin (standard linear solid) law of paper eqs. (5)-(9).
 
-Continuous form (MODEL.md): :math:`\tau = \sigma + \gamma h`,
+Continuous form (docs/model.md): :math:`\tau = \sigma + \gamma h`,
 :math:`h(t) = \int_0^t e^{-\beta (t-s)} \dot\tau(s)\, ds`, :math:`\sigma = g_\infty (\varepsilon - \varepsilon_0)`,
 with the fibre strain :math:`\varepsilon = E : (v \otimes v)`. Instantaneous modulus :math:`g_\infty / (1-\gamma)`,
 equilibrium modulus :math:`g_\infty`, relaxation rate :math:`\beta`.
@@ -155,7 +155,7 @@ class KelvinFibres:
         At each step of the uniform grid ``time_s`` (``time_s[0] = 0``: unloaded) eq. (5) is inverted for the
         strain (the trial tension is affine in it), the compiled kernel evaluates the tension there and eq. (7)
         updates the history. The closed form it converges to as dt -> 0 is
-        :math:`\varepsilon(t) = (\tau_0/g_\infty)(1 - \gamma e^{-\beta t})` (MODEL.md).
+        :math:`\varepsilon(t) = (\tau_0/g_\infty)(1 - \gamma e^{-\beta t})` (docs/model.md).
         """
         t = np.asarray(time_s, dtype=float)
         dt = t[1] - t[0]

@@ -7,7 +7,8 @@ engineering shear), so the double contraction of two symmetric tensors is
 .. math:: A : B = \sum_{i<3} a_i b_i + 2 \sum_{i \ge 3} a_i b_i .
 
 With :math:`E` the Green strain, :math:`C = I + 2E`, :math:`J = \sqrt{\det C}`,
-:math:`I_1 = \operatorname{tr} C`, :math:`I_2 = \tfrac12((\operatorname{tr} C)^2 - \operatorname{tr}(C^2))` (MODEL.md).
+:math:`I_1 = \operatorname{tr} C`, :math:`I_2 = \tfrac12((\operatorname{tr} C)^2 - \operatorname{tr}(C^2))`
+(docs/model.md).
 """
 
 from __future__ import annotations

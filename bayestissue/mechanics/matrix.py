@@ -1,6 +1,7 @@
 r"""Mooney-Rivlin matrix and volumetric penalty: second Piola-Kirchhoff stress and consistent tangent.
 
-Stress (MODEL.md; paper eq. (4) with its first bracket corrected to the standard total-Lagrangian neo-Hookean form):
+Stress (docs/model.md; paper eq. (4) with its first bracket corrected to the standard total-Lagrangian neo-Hookean
+form):
 
 .. math::
 

@@ -10,7 +10,7 @@ Three kinds, registered by name in :data:`PROTOCOLS` (the ``kind`` key of an exp
   beyond the last sample).
 
 Every protocol starts unloaded: the state at :math:`t = 0` is the reference one, the load acts from the first
-simulation step on (MODEL.md, initial state).
+simulation step on (docs/model.md, initial state).
 """
 
 from __future__ import annotations

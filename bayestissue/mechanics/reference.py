@@ -2,7 +2,7 @@ r"""A straightforward NumPy implementation of the stress and of one uniaxial ste
 compiled kernels: full 3x3 tensors, ``numpy.linalg`` and :func:`scipy.optimize.root`.
 
 It serves as the independent implementation the kernels are checked against (tests) and as the baseline of the
-speed benchmark (``benchmarks/bench_forward.py``). Same equations as MODEL.md:
+speed benchmark (``benchmarks/bench_forward.py``). Same equations as docs/model.md:
 
 .. math::
 
@@ -42,7 +42,7 @@ def reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, tension_trial
 
 def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_x, *, tol=1e-10):
     """Integrate one uniaxial test step by step with ``scipy.optimize.root`` on the six equations
-    :math:`S(E) - P_{11}/\\sqrt{C_{11}}\\, e_1 \\otimes e_1 = 0` (MODEL.md). Slack strains are zero.
+    :math:`S(E) - P_{11}/\\sqrt{C_{11}}\\, e_1 \\otimes e_1 = 0` (docs/model.md). Slack strains are zero.
 
     Returns the x-displacement (mm) at every step of ``load`` (NaN from the first step that fails).
     """

@@ -1,9 +1,9 @@
 """Tissue composition and the model's parameters: names, units, the paper's Table 1 and checks.
 
-The composite of MODEL.md: a Mooney-Rivlin matrix with volume fraction ``phi_matrix``, a volumetric penalty with bulk
-modulus ``bulk_kpa`` and ``n_f`` viscoelastic, tension-only fibre families with volume fractions ``phi_fibres``, unit
-directions ``directions`` and slack strains ``eps0`` (paper eq. (4)). The material parameters, in the paper's order,
-are ``mu, kappa`` then ``ginf_k, gamma_k, beta_k`` for each fibre family k = 1..n_f (Table 1 of MODEL.md).
+The composite of docs/model.md: a Mooney-Rivlin matrix with volume fraction ``phi_matrix``, a volumetric penalty with
+bulk modulus ``bulk_kpa`` and ``n_f`` viscoelastic, tension-only fibre families with volume fractions ``phi_fibres``,
+unit directions ``directions`` and slack strains ``eps0`` (paper eq. (4)). The material parameters, in the paper's
+order, are ``mu, kappa`` then ``ginf_k, gamma_k, beta_k`` for each fibre family k = 1..n_f (Table 1 of docs/model.md).
 """
 
 from __future__ import annotations
@@ -13,25 +13,21 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive, check_unit_vector
+from bayestissue.paper import (
+    PAPER_BULK_KPA,
+    PAPER_DIRECTIONS_PRINTED,
+    PAPER_PARAMETERS,
+    PAPER_PHI_FIBRES,
+    PAPER_PHI_MATRIX,
+)
 
 __all__ = [
     "TissueConfig",
     "PAPER_TISSUE",
-    "PAPER_DIRECTIONS",
     "param_names",
-    "param_unit",
-    "PARAM_UNITS",
-    "PAPER_PARAMETERS",
-    "PAPER_BOUNDS",
     "parse_parameters",
     "check_parameters",
 ]
-
-#: The paper's three fibre directions (MODEL.md, Section 3.1 of the paper), as printed; normalised on use.
-PAPER_DIRECTIONS = ((0.0, 1.0, 0.0), (0.9369, 0.3420, 0.0), (0.9369, -0.3420, 0.0))
-
-#: Unit of each parameter kind (name without the fibre index).
-PARAM_UNITS = {"mu": "kPa", "kappa": "kPa", "ginf": "kPa", "gamma": "1", "beta": "1/s"}
 
 
 def param_names(n_fibres: int = 3) -> tuple[str, ...]:
@@ -40,25 +36,6 @@ def param_names(n_fibres: int = 3) -> tuple[str, ...]:
     for k in range(1, n_fibres + 1):
         names += [f"ginf{k}", f"gamma{k}", f"beta{k}"]
     return tuple(names)
-
-
-def param_unit(name: str) -> str:
-    """Unit of parameter ``name`` (``'ginf2'`` -> ``'kPa'``)."""
-    return PARAM_UNITS[name.rstrip("0123456789")]
-
-
-#: MODEL.md Table 1: the paper's initial guess and its final T1 and T2 estimates (11 parameters, paper order).
-PAPER_PARAMETERS = {
-    "initial": np.array([10, 50, 125, 0.75, 1.25, 125, 0.75, 1.25, 125, 0.75, 1.25], dtype=float),
-    "T1": np.array([2.18, 2.91, 125, 0.75, 1.25, 13.4, 0.891, 0.00056, 13.4, 0.891, 0.00043]),
-    "T2": np.array([0.102, 68.5, 125, 0.75, 1.25, 9.52, 0.1, 2.50, 9.52, 0.1, 2.50]),
-}
-for _v in PAPER_PARAMETERS.values():
-    _v.setflags(write=False)
-
-#: MODEL.md Table 1 box constraints [min, max] per parameter (paper order).
-PAPER_BOUNDS = np.array([[0.001, 1000], [0.001, 1000]] + [[0.001, 1000], [0.1, 0.95], [0.00001, 2.5]] * 3, dtype=float)
-PAPER_BOUNDS.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -126,19 +103,14 @@ class TissueConfig:
     def param_names(self) -> tuple[str, ...]:
         return param_names(self.n_fibres)
 
-    def as_dict(self) -> dict:
-        """Plain-Python description (for provenance records and TOML/JSON output)."""
-        return {
-            "directions": self.directions.tolist(),
-            "phi_fibres": self.phi_fibres.tolist(),
-            "phi_matrix": self.phi_matrix,
-            "bulk_kpa": self.bulk_kpa,
-            "eps0": self.eps0.tolist(),
-        }
 
-
-#: The paper's composition: three fibre families of 0.2 each, matrix 0.4, K = 1000 kPa, eps0 = 0 (MODEL.md).
-PAPER_TISSUE = TissueConfig(directions=PAPER_DIRECTIONS, phi_fibres=(0.2, 0.2, 0.2), phi_matrix=0.4, bulk_kpa=1000.0)
+#: The paper's composition: three fibre families of 0.2 each, matrix 0.4, K = 1000 kPa, eps0 = 0 (docs/model.md).
+PAPER_TISSUE = TissueConfig(
+    directions=PAPER_DIRECTIONS_PRINTED,
+    phi_fibres=PAPER_PHI_FIBRES,
+    phi_matrix=PAPER_PHI_MATRIX,
+    bulk_kpa=PAPER_BULK_KPA,
+)
 
 
 def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:

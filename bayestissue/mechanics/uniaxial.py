@@ -1,7 +1,7 @@
 r"""The reduced FE model of a uniaxial test, batched over parameter sets.
 
 A homogeneous block :math:`L_x \times L_y \times L_z` under a dead load along x with traction-free lateral faces
-deforms homogeneously, so one element with one quadrature point is exact (MODEL.md). With the rigid rotation fixed
+deforms homogeneously, so one element with one quadrature point is exact (docs/model.md). With the rigid rotation fixed
 so that :math:`F e_1 \parallel e_1`, equilibrium at every time step reads
 
 .. math:: S(E) = \frac{P_{11}}{\sqrt{C_{11}}}\, e_1 \otimes e_1,

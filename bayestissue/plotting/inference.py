@@ -223,7 +223,7 @@ def plot_waterfall(costs, *, labels=None, ax=None, title=None):
 
 
 def calibration_figures(outcome) -> dict:
-    """All figures of a :class:`~bayestissue.inference.calibration.CalibrationOutcome`, by name.
+    """All figures of a :class:`~bayestissue.workflows.CalibrationOutcome`, by name.
 
     Names: ``ls_history``, ``waterfall``, and with a posterior ``corner``, ``traces``,
     ``predictive_<exp>``, ``residuals_<exp>``. Returns figures; the caller saves and closes them.

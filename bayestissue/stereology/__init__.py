@@ -5,8 +5,8 @@ Modules: :mod:`~.sections` (SURS, point counts, V_V and its CE), :mod:`~.lines` 
 :mod:`~.rose` (equal-area rose of directions, Lambert projection), :mod:`~.axial` (orientation
 tensor, Watson distribution and mixtures), :mod:`~.uncertainty` (bootstraps done right for
 systematic samples), :mod:`~.replicates` (the joint replicate table for the mechanics),
-:mod:`~.known_object` (an analytic phantom for checking CE predictors). Synthetic tissue phantoms
-and the micrograph pipeline live in separate modules of this package.
+:mod:`~.known_object` (an analytic phantom for checking CE predictors). The synthetic tissue phantom
+and the micrograph pipeline: :mod:`bayestissue.stereology.micrographs`.
 """
 
 from bayestissue.stereology.axial import (
@@ -31,6 +31,7 @@ from bayestissue.stereology.lines import (
     to_upper_hemisphere,
     unit_vector,
 )
+from bayestissue.stereology.point_counts import PointCounts
 from bayestissue.stereology.replicates import (
     direction_bootstrap,
     fibre_fraction_split,
@@ -48,7 +49,6 @@ from bayestissue.stereology.rose import (
     rose_of_directions,
 )
 from bayestissue.stereology.sections import (
-    PointCounts,
     alpha_q,
     ce_sum,
     classic_ratio_ce,
@@ -60,7 +60,6 @@ from bayestissue.stereology.sections import (
     surs_sum_variance,
 )
 from bayestissue.stereology.uncertainty import (
-    PAPER_DIRECTIONS,
     align_axes,
     bootstrap_cells,
     cluster_fraction_bootstrap,
@@ -71,7 +70,6 @@ from bayestissue.stereology.uncertainty import (
 )
 
 __all__ = [
-    "PAPER_DIRECTIONS",
     "EqualAreaRose",
     "LineSystem",
     "PointCounts",

@@ -7,7 +7,7 @@ stack of ten registered micrographs and approximated them by lines; the length d
 
 3171.1 um / 184 774 um^3 = 0.0172 um^-2 in the paper.
 
-Frame and angles (the project's body frame, MODEL.md): x the loading direction (longitudinal), y
+Frame and angles (the project's body frame, docs/model.md): x the loading direction (longitudinal), y
 top-down, z the remaining axis. Lines are axes, mapped to the upper hemisphere :math:`z \ge 0` with
 the pole on z; azimuth :math:`\varphi = \operatorname{atan2}(y, x) \in [0, 360)` degrees and
 elevation :math:`\epsilon = \arcsin z \in [0, 90]` degrees (the angle above the x-y plane). The

@@ -26,12 +26,12 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 from bayestissue.io.stereology_files import REPLICATE_COLUMNS
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology.axial import axial_angle, fit_watson_mixture
 from bayestissue.stereology.lines import LineSystem
+from bayestissue.stereology.point_counts import PointCounts
 from bayestissue.stereology.rose import preferential_directions, rose_of_directions
-from bayestissue.stereology.sections import PointCounts
 from bayestissue.stereology.uncertainty import (
-    PAPER_DIRECTIONS,
     align_axes,
     bootstrap_cells,
     cluster_fraction_bootstrap,

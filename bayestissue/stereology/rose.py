@@ -95,11 +95,6 @@ class EqualAreaRose:
     weights: np.ndarray
 
     @property
-    def elevation_edges(self) -> np.ndarray:
-        """(n + 1,) band edges in degrees of elevation, arcsin(k / n)."""
-        return np.degrees(np.arcsin(np.arange(self.n + 1) / self.n))
-
-    @property
     def azimuth_edges(self) -> np.ndarray:
         """(n + 1,) meridian edges in degrees."""
         return np.linspace(0.0, 360.0, self.n + 1)

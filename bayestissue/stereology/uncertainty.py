@@ -31,7 +31,6 @@ from bayestissue._validation import ValidationError, check_interval
 from bayestissue.stereology.axial import axial_angle
 
 __all__ = [
-    "PAPER_DIRECTIONS",
     "logistic_normal_draws",
     "parametric_fraction_bootstrap",
     "cluster_fraction_bootstrap",
@@ -40,11 +39,6 @@ __all__ = [
     "bootstrap_cells",
     "confidence_cones",
 ]
-
-#: The paper's fibre directions (Section 3.2.1), normalised: v1 along y, v2 / v3 x tilted toward +y
-#: / -y.
-PAPER_DIRECTIONS = np.array([[0.0, 1.0, 0.0], [0.9369, 0.3420, 0.0], [0.9369, -0.3420, 0.0]])
-PAPER_DIRECTIONS = PAPER_DIRECTIONS / np.linalg.norm(PAPER_DIRECTIONS, axis=1, keepdims=True)
 
 
 def _n_boot(n_boot) -> int:

@@ -96,9 +96,9 @@ def test_empty_and_missing_sources(tmp_path, capsys):
 @pytest.fixture(scope="module")
 def chain():
     """Phantom -> images -> pipeline on the default 60 x 100 x 100 um phantom (seed 1)."""
-    from bayestissue.cli.micrographs import analyse_micrographs
-    from bayestissue.stereology.phantom import PhantomOptions, make_phantom
-    from bayestissue.stereology.render import render_sections
+    from bayestissue.stereology.micrographs import analyse_micrographs
+    from bayestissue.stereology.micrographs.phantom import PhantomOptions, make_phantom
+    from bayestissue.stereology.micrographs.render import render_sections
 
     p = make_phantom(PhantomOptions(), rng=1)
     s = render_sections(p, rng=1)
@@ -108,7 +108,7 @@ def chain():
 
 
 def _field_truth(p, s, valid):
-    from bayestissue.stereology.segmentation import label_fractions
+    from bayestissue.stereology.micrographs.segmentation import label_fractions
 
     m = s.margin_px
     n, H, W = s.labels.shape
@@ -120,7 +120,7 @@ def _field_truth(p, s, valid):
 
 @pytest.mark.slow
 def test_chain_registration_and_volume_fractions(chain):
-    from bayestissue.stereology.registration import displacement_error_px
+    from bayestissue.stereology.micrographs.registration import displacement_error_px
 
     p, s, res = chain
     err = displacement_error_px(res.registered.transforms, s.transforms, s.images.shape[1:3])
@@ -159,8 +159,8 @@ def test_chain_directions_within_10_degrees(chain):
 
 def test_io_and_library_errors(tmp_path, phantom_dir, capsys):
     from bayestissue._validation import ValidationError
-    from bayestissue.cli.micrographs import analyse_micrographs
     from bayestissue.io.micrographs import write_truth
+    from bayestissue.stereology.micrographs import analyse_micrographs
 
     images, _ = read_micrographs(phantom_dir)
     with pytest.raises(ValidationError, match="pixel_um: expected the pixel size in um"):

@@ -9,7 +9,8 @@ import pytest
 
 from bayestissue.cli import main
 from bayestissue.io.tables import read_table
-from bayestissue.mechanics import PAPER_PARAMETERS, load_experiment, simulate
+from bayestissue.mechanics import load_experiment, simulate
+from bayestissue.paper import PAPER_PARAMETERS
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 

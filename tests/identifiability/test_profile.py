@@ -12,10 +12,10 @@ from bayestissue.identifiability.profile import (
     CHI2_1_95,
     ProfileOptions,
     classify_profile,
-    fit_least_squares,
-    profile_all,
+    fit_residuals,
     profile_likelihood,
 )
+from bayestissue.identifiability.restarts import profile_all
 
 RNG = np.random.default_rng(42)
 X = np.linspace(0, 1, 30)
@@ -30,7 +30,7 @@ def _lin(theta):
 
 def test_linear_gaussian_profile_is_the_exact_parabola():
     lo, hi = [-10.0] * 3, [10.0] * 3
-    th, c2 = fit_least_squares(_lin, np.zeros(3), lower=lo, upper=hi, log=False, batched=True)
+    th, c2 = fit_residuals(_lin, np.zeros(3), lower=lo, upper=hi, log=False, batched=True)
     ols, *_ = np.linalg.lstsq(A / SD, Y_LIN / SD, rcond=None)
     np.testing.assert_allclose(th, ols, atol=1e-6)
     cov = np.linalg.inv(A.T @ A) * SD**2
@@ -89,7 +89,7 @@ def _sat(theta):
 
 def test_saturating_rate_is_practically_non_identifiable_open_above():
     lo, hi = [0.1, 0.01], [10.0, 1000.0]
-    th, _ = fit_least_squares(_sat, [[1.0, 5.0], [1.0, 50.0]], lower=lo, upper=hi, batched=True)
+    th, _ = fit_residuals(_sat, [[1.0, 5.0], [1.0, 50.0]], lower=lo, upper=hi, batched=True)
     pk = profile_likelihood(_sat, th, 1, lower=lo, upper=hi, batched=True)
     assert pk.classification == "practically non-identifiable"
     assert pk.open_sides == (False, True)
@@ -151,7 +151,7 @@ def _two_wells(theta):
 def test_profile_all_restarts_from_a_better_optimum_found_by_a_profile():
     lo, hi = [-3.0, -3.0], [3.0, 3.0]
     kw = dict(lower=lo, upper=hi, log=False, batched=True)
-    th_local, c2_local = fit_least_squares(_two_wells, [-1.0, -1.0], **kw)
+    th_local, c2_local = fit_residuals(_two_wells, [-1.0, -1.0], **kw)
     assert th_local[0] < 0 and c2_local == pytest.approx(0.9544, abs=1e-4)  # stuck in the worse well
     # the defect: a single profile from the local optimum dips 0.954 below 0
     old = profile_likelihood(_two_wells, th_local, 0, **kw)

@@ -13,9 +13,11 @@ import pytest
 from inference_helpers import prior_only_problem
 from scipy import stats
 
-from bayestissue.inference import SamplerOptions, initial_walkers, paper_parameter_set, run_ensemble
-from bayestissue.inference.coordinates import CreepCoordinates, make_coordinates, reference_stretch
+from bayestissue.inference import SamplerOptions, initial_walkers, run_ensemble
+from bayestissue.inference.coordinates import CreepCoordinates, make_coordinates
 from bayestissue.mechanics import PAPER_TISSUE
+from bayestissue.workflows import paper_parameter_set
+from bayestissue.workflows.problem import reference_stretch
 
 TIED = {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}
 
@@ -98,7 +100,9 @@ def test_creep_coordinates_need_the_law_sampled_and_mechanics():
     with pytest.raises(ValueError, match="creep coordinates: expected a family stretched along x"):
         CreepCoordinates(_pars(), stretch=1.5, phi_matrix=0.4, fibres=[(0.2, (0, 1, 0))])
     problem = prior_only_problem(_pars().specs)
-    with pytest.raises(ValueError, match="sampler coordinates: expected 'box' for experiments without"):
+    with pytest.raises(
+        ValueError, match="sampler coordinates: expected 'box' or 'ramp' for a problem without geometry"
+    ):
         make_coordinates("creep", problem)
     with pytest.raises(ValueError, match="sampler coordinates: expected one of"):
         make_coordinates("polar", problem)
@@ -108,15 +112,16 @@ def test_creep_coordinates_need_the_law_sampled_and_mechanics():
 
 
 def test_config_builds_a_tied_problem_in_creep_coordinates():
-    from bayestissue.inference.calibration import build_problem, config_from_mapping
     from bayestissue.mechanics import load_experiment
+    from bayestissue.workflows import build_problem, config_from_mapping
 
     exp = load_experiment(Path(__file__).resolve().parents[2] / "data" / "T1.toml")
     cfg = config_from_mapping({"parameters": {"tied": TIED}, "sampler": {"coordinates": "creep"}})
     problem = build_problem([exp], cfg)
     assert isinstance(problem.coordinates, CreepCoordinates)
     assert problem.names == ("mu", "kappa", "ginf1", "gamma1", "beta1", "ginf2", "gamma2", "beta2", "sigma_T1")
-    assert reference_stretch(problem.experiments) == pytest.approx(1 + exp.displacement_mm.mean() / 5.33)
+    assert reference_stretch([exp]) == pytest.approx(1 + exp.displacement_mm.mean() / 5.33)
+    assert problem.coordinates.stretch == reference_stretch([exp])
     theta = np.array([[2.18, 2.91, 125, 0.75, 1.25, 13.4, 0.891, 5e-4, 0.02]])
     z = problem.coordinates.to_unconstrained(theta)
     expected = problem.log_posterior(theta) + problem.coordinates.log_abs_det_jacobian(z)
@@ -170,7 +175,7 @@ def test_two_dimensional_shear_round_trips_and_keeps_the_log_jacobian():
 
 
 def test_config_rejects_unknown_coordinates():
-    from bayestissue.inference.calibration import config_from_mapping
+    from bayestissue.workflows import config_from_mapping
 
     expected = "sampler.coordinates: expected one of \\['box', 'creep', 'ramp'\\], got 'polar'"
     with pytest.raises(ValueError, match=expected):
@@ -185,9 +190,9 @@ def test_ramp_shear_straightens_the_t2_valley_with_a_unit_jacobian():
     from scipy.optimize import least_squares
 
     from bayestissue.inference import fit_least_squares
-    from bayestissue.inference.calibration import build_problem, config_from_mapping
     from bayestissue.inference.coordinates import RampCoordinates, ShearedCoordinates, adapt_coordinates
     from bayestissue.mechanics import load_experiment
+    from bayestissue.workflows import build_problem, config_from_mapping
 
     exp = load_experiment(Path(__file__).resolve().parents[2] / "data" / "T2.toml")
     cfg = config_from_mapping({"parameters": {"tied": TIED}, "sampler": {"coordinates": "ramp"}})

@@ -14,7 +14,6 @@ from bayestissue.inference.diagnostics import (
     import_arviz,
     rhat_ensembles,
 )
-from bayestissue.inference.linear import linear_gaussian_posterior, linear_gaussian_problem
 from bayestissue.inference.posterior import to_inference_data
 from bayestissue.inference.summary import generating_fit, summary_table, table_markdown
 from bayestissue.inference.warmstart import fit_least_squares
@@ -25,6 +24,8 @@ from bayestissue.io.results import (
     read_inference_data,
     write_inference_data,
 )
+from bayestissue.workflows import load_config
+from tests.inference.linear_model import linear_gaussian_posterior, linear_gaussian_problem
 
 
 def test_rhat_between_ensembles_detects_a_shifted_ensemble():
@@ -150,8 +151,13 @@ def test_config_errors(tmp_path):
         read_config(bad)
     unknown = tmp_path / "unknown.toml"
     unknown.write_text("[mcmc]\nseed = 1\n")
-    with pytest.raises(ValueError, match=r"configuration unknown.toml sections: expected sections"):
-        read_config(unknown)
+    assert read_config(unknown) == {"mcmc": {"seed": 1}}  # plain data; the schema is the workflow's
+    with pytest.raises(ValueError, match=r"configuration unknown.toml section: expected one of \['likelihood'"):
+        load_config(unknown)
+    typo = tmp_path / "typo.toml"
+    typo.write_text("[sampler]\nmax_step = 10\n")
+    with pytest.raises(ValueError, match=r"configuration typo.toml \[sampler\] keys: expected keys among"):
+        load_config(typo)
 
 
 def test_generating_fit_places_the_truth_among_the_draws_and_a_moved_truth_below(small_run):

@@ -14,7 +14,7 @@ from bayestissue.inference import (
     StudentTNoise,
     make_noise,
 )
-from bayestissue.inference.linear import LinearForward, linear_gaussian_problem
+from tests.inference.linear_model import LinearForward, linear_gaussian_problem
 
 RNG = np.random.default_rng(5)
 RESID = RNG.normal(0, 0.3, (3, 25))
@@ -129,7 +129,7 @@ def test_problem_errors():
 
 
 def test_exchangeable_groups_fold_the_label_switching_mode():
-    from bayestissue.inference.linear import LinearForward
+    from tests.inference.linear_model import LinearForward
 
     t = np.linspace(0, 1, 30)
     design = np.column_stack([np.ones_like(t), t, t])  # x1 and x2 enter symmetrically

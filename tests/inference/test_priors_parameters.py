@@ -12,10 +12,10 @@ from bayestissue.inference import (
     SamplerOptions,
     UniformPrior,
     initial_walkers,
-    paper_parameter_set,
     run_ensemble,
 )
 from bayestissue.inference.priors import make_prior
+from bayestissue.workflows import paper_parameter_set
 
 
 @pytest.mark.parametrize("prior", [UniformPrior(0.1, 0.95), LogUniformPrior(1e-3, 1e3)])

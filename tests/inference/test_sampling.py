@@ -21,7 +21,7 @@ from bayestissue.inference import (
     sample_posterior,
 )
 from bayestissue.inference.diagnostics import assess_convergence, stuck_walkers
-from bayestissue.inference.linear import linear_gaussian_posterior, linear_gaussian_problem
+from tests.inference.linear_model import linear_gaussian_posterior, linear_gaussian_problem
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -139,7 +139,7 @@ _CHILD = textwrap.dedent(
     import sys
     import numpy as np
     from bayestissue.inference import SamplerOptions, initial_walkers, run_ensemble
-    from bayestissue.inference.linear import linear_gaussian_posterior, linear_gaussian_problem
+    from tests.inference.linear_model import linear_gaussian_posterior, linear_gaussian_problem
 
     problem, _ = linear_gaussian_problem(rng=1)
     mean, cov = linear_gaussian_posterior(problem)

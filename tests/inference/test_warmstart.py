@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from bayestissue.inference import fit_least_squares, fit_multistart
-from bayestissue.inference.linear import linear_gaussian_posterior, linear_gaussian_problem
 from bayestissue.inference.warmstart import cluster_optima, latin_hypercube
+from tests.inference.linear_model import linear_gaussian_posterior, linear_gaussian_problem
 
 
 @pytest.mark.parametrize("space", ["natural", "unit"])

@@ -13,7 +13,8 @@ ROOT = Path(__file__).resolve().parents[2]
 _SCRIPT = """
 import hashlib
 import numpy as np
-from bayestissue.mechanics import PAPER_PARAMETERS, load_experiment, simulate
+from bayestissue.mechanics import load_experiment, simulate
+from bayestissue.paper import PAPER_PARAMETERS
 exp = load_experiment("data/T1.toml")
 p = np.array(PAPER_PARAMETERS["initial"], dtype=float)
 batch = p * (1 + 1e-4 * np.vstack([np.zeros(11), np.eye(11)]))

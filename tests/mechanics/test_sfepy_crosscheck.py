@@ -11,7 +11,7 @@ hyperelasticity (terms ``dw_tl_he_neohook``, ``dw_tl_he_mooney_rivlin``, ``dw_tl
 - Free block (fibre families not mirror-symmetric about x shear the block, which rollers would forbid): tractions
   :math:`\pm P_{11} e_1` on both x faces; the rigid motion is fixed by u = 0 at the origin, u_y = u_z = 0 at
   (L_x, 0, 0) and u_y = 0 at (0, 0, L_z). The last two are exactly the gauge :math:`F e_1 \parallel e_1` of
-  MODEL.md, which the moment balance of the dead load enforces anyway, so they carry no reaction.
+  docs/model.md, which the moment balance of the dead load enforces anyway, so they carry no reaction.
 
 Fibres: SfePy's built-in fibre terms compute :math:`\varepsilon = E : (v \otimes v)` without the factor 2 on the
 shear components of its symmetric storage, so a small custom term :class:`_LinearFibreTLTerm` implements the
@@ -58,18 +58,12 @@ with warnings.catch_warnings():
     from sfepy.terms import Term
     from sfepy.terms.terms_hyperelastic_tl import HyperElasticTLBase
 
-from bayestissue.mechanics import (  # noqa: E402
-    PAPER_DIRECTIONS,
-    PAPER_TISSUE,
-    CreepProtocol,
-    Experiment,
-    TissueConfig,
-    simulate,
-)
+from bayestissue.mechanics import PAPER_TISSUE, CreepProtocol, Experiment, TissueConfig, simulate  # noqa: E402
+from bayestissue.paper import PAPER_DIRECTIONS_PRINTED as PAPER_DIRECTIONS  # noqa: E402
 
 pytestmark = [pytest.mark.sfepy, pytest.mark.filterwarnings(f"ignore:{_PYPARSING_DEPRECATION}:DeprecationWarning")]
 
-#: T1 specimen (MODEL.md), mm.
+#: T1 specimen (docs/model.md), mm.
 SPECIMEN = (5.33, 2.43, 3.9)
 #: Load levels (kPa): a small one, the T1 creep stress, and a large one (stretch ~ 2-4 for the soft matrices).
 LOADS = (1.0, 10.6, 40.0)
@@ -150,14 +144,14 @@ class _SfepyConventionFibreTerm(_LinearFibreTLTerm):
 
 
 class _KelvinFibreTLTerm(_LinearFibreTLTerm):
-    r"""Viscoelastic fibre family: the time-discrete Kelvin law (paper eqs. (5)-(9), MODEL.md) in a SfePy term.
+    r"""Viscoelastic fibre family: the time-discrete Kelvin law (paper eqs. (5)-(9), docs/model.md) in a SfePy term.
 
     Within a time step the trial tension is affine in the fibre strain,
     :math:`\tilde\tau = (g_\infty \varepsilon + q)/c` with :math:`c = 1 - \gamma e^{-\beta\Delta t/2}` and the
     history term :math:`q = \gamma (e^{-\beta\Delta t} h^n - e^{-\beta\Delta t/2} \tau^n)` held per quadrature
     point in ``self.history`` (a dict shared with the driver, :meth:`_Block.advance_history`, which applies eq. (7)
     after each converged step). Material: ``g = phi_k ginf_k`` and the direction; ``history`` holds ``phi``,
-    ``ginf``, ``gamma``, ``beta``, ``dt`` and the arrays ``tau``, ``h`` (n_el, n_qp, 1, 1). Written from MODEL.md,
+    ``ginf``, ``gamma``, ``beta``, ``dt`` and the arrays ``tau``, ``h`` (n_el, n_qp, 1, 1). Written from docs/model.md,
     independently of ``bayestissue.mechanics.fibres``.
     """
 
@@ -534,7 +528,7 @@ def _kelvin_creep(order=1):
 
 def test_kelvin_fibres_creep_matches_reduced_model():
     """Viscoelastic fibres over 20 time steps (the paper's T1 moduli and gammas, betas 0.02 / 0.005 1/s): a SfePy
-    term with the Kelvin update written from MODEL.md (per quadrature point history) on the free block against
+    term with the Kelvin update written from docs/model.md (per quadrature point history) on the free block against
     ``simulate``: the whole creep curve, the shear and the fibre memory. Q1 elements (exact here, and fast)."""
     u_bt, u_fe, d_e, d_lam, e_end, _ = _kelvin_creep()
     assert u_bt[-1] > 1.05 * u_bt[1]  # it creeps

@@ -5,7 +5,6 @@ import pytest
 from scipy.optimize import root
 
 from bayestissue.mechanics import (
-    PAPER_PARAMETERS,
     PAPER_TISSUE,
     CreepProtocol,
     Experiment,
@@ -17,6 +16,7 @@ from bayestissue.mechanics import (
     simulate,
 )
 from bayestissue.mechanics.reference import reference_simulate_experiment
+from bayestissue.paper import PAPER_PARAMETERS
 
 
 def creep(stress=10.6, *, tissue=PAPER_TISSUE, t_end=1200.0, dt=6.0, data_step=3.0):
@@ -25,7 +25,7 @@ def creep(stress=10.6, *, tissue=PAPER_TISSUE, t_end=1200.0, dt=6.0, data_step=3
 
 
 def test_single_fibre_creep_converges_to_closed_form_at_first_order():
-    """eps(t) = (tau0/ginf)(1 - gamma exp(-beta t)) (MODEL.md). The midpoint history update of eq. (7) treats the
+    """eps(t) = (tau0/ginf)(1 - gamma exp(-beta t)) (docs/model.md). The midpoint history update of eq. (7) treats the
     load jump at t = 0 as if it happened half a step later, an O(dt) error: observed order 1 (measured 0.89, 0.95,
     0.97, 0.99 for dt = 4 ... 0.25 s; the finest two asserted within 0.05 of 1)."""
     fibre = KelvinFibres(ginf=10.0, gamma=0.6, beta=0.05)

@@ -6,6 +6,7 @@ from scipy import stats
 from scipy.special import hyp1f1
 
 from bayestissue._validation import ValidationError
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology.axial import (
     WatsonMixture,
     axial_angle,
@@ -19,7 +20,7 @@ from bayestissue.stereology.axial import (
     watson_mean_t2,
     watson_pdf,
 )
-from bayestissue.stereology.uncertainty import PAPER_DIRECTIONS, align_axes
+from bayestissue.stereology.uncertainty import align_axes
 
 
 def _sphere_grid(n_theta=400, n_phi=800):

@@ -5,6 +5,7 @@ import pytest
 
 from bayestissue._validation import ValidationError
 from bayestissue.io.stereology_files import read_line_system, read_point_counts, read_replicates
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology.axial import fit_watson_mixture
 from bayestissue.stereology.known_object import TwoBallPhantom, simulate_surs_counts
 from bayestissue.stereology.lines import (
@@ -13,15 +14,15 @@ from bayestissue.stereology.lines import (
     stack_volume,
     to_upper_hemisphere,
 )
+from bayestissue.stereology.point_counts import PointCounts
 from bayestissue.stereology.replicates import (
     fibre_fraction_split,
     fit_fibre_directions,
     replicate_table,
 )
 from bayestissue.stereology.rose import preferential_directions, rose_of_directions
-from bayestissue.stereology.sections import PointCounts, nugget_variance, surs_sum_variance
+from bayestissue.stereology.sections import nugget_variance, surs_sum_variance
 from bayestissue.stereology.uncertainty import (
-    PAPER_DIRECTIONS,
     cluster_fraction_bootstrap,
     confidence_cones,
     logistic_normal_draws,

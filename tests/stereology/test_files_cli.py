@@ -14,10 +14,10 @@ from bayestissue.io.stereology_files import (
     write_point_counts,
     write_replicates,
 )
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology.axial import WatsonMixture
 from bayestissue.stereology.lines import LineSystem
-from bayestissue.stereology.sections import PointCounts
-from bayestissue.stereology.uncertainty import PAPER_DIRECTIONS
+from bayestissue.stereology.point_counts import PointCounts
 
 
 @pytest.fixture

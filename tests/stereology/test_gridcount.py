@@ -5,8 +5,8 @@ import pytest
 
 from bayestissue._validation import ValidationError
 from bayestissue.io.stereology_files import read_point_counts
-from bayestissue.stereology.gridcount import COMPONENTS, count_points, grid_points, write_grid_counts
-from bayestissue.stereology.phantom import CAVITY, ECM, SMC
+from bayestissue.stereology.micrographs.gridcount import COMPONENTS, count_points, grid_points, write_grid_counts
+from bayestissue.stereology.micrographs.phantom import CAVITY, ECM, SMC
 
 
 def _halves(n=6, H=200, W=200):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.stereology.phantom import (
+from bayestissue.stereology.micrographs.phantom import (
     CAVITY,
     ECM,
     SMC,

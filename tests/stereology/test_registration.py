@@ -5,15 +5,15 @@ import pytest
 from skimage.transform import EuclideanTransform, warp
 
 from bayestissue._validation import ValidationError
-from bayestissue.stereology.phantom import PhantomOptions, make_phantom
-from bayestissue.stereology.registration import (
+from bayestissue.stereology.micrographs.phantom import PhantomOptions, make_phantom
+from bayestissue.stereology.micrographs.registration import (
     displacement_error_px,
     estimate_rigid,
     estimate_rotation_logpolar,
     register_stack,
     rigid_params,
 )
-from bayestissue.stereology.render import render_sections, rigid_matrix
+from bayestissue.stereology.micrographs.render import render_sections, rigid_matrix
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.stereology.phantom import CAVITY, ECM, SMC, PhantomOptions, make_phantom
-from bayestissue.stereology.render import (
+from bayestissue.stereology.micrographs.phantom import CAVITY, ECM, SMC, PhantomOptions, make_phantom
+from bayestissue.stereology.micrographs.render import (
     StainOptions,
     render_sections,
     rigid_matrix,

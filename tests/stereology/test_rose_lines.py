@@ -5,6 +5,7 @@ import pytest
 from scipy import stats
 
 from bayestissue._validation import ValidationError
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology.axial import WatsonMixture, axial_angle
 from bayestissue.stereology.lines import (
     LineSystem,
@@ -23,7 +24,6 @@ from bayestissue.stereology.rose import (
     preferential_directions,
     rose_of_directions,
 )
-from bayestissue.stereology.uncertainty import PAPER_DIRECTIONS
 
 
 def _uniform_axes(n, rng):

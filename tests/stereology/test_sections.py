@@ -5,9 +5,9 @@ import pytest
 
 from bayestissue._validation import ValidationError
 from bayestissue.stereology.known_object import TwoBallPhantom, _lattice_count, ce_check
+from bayestissue.stereology.point_counts import PointCounts
 from bayestissue.stereology.sections import (
     DISC_SHAPE_FACTOR,
-    PointCounts,
     alpha_q,
     ce_sum,
     classic_ratio_ce,
@@ -21,7 +21,7 @@ from bayestissue.stereology.sections import (
     surs_sum_variance,
 )
 
-# STEREOLOGY.md example for the successive-difference identity
+# docs/stereology.md example for the successive-difference identity
 P_EXAMPLE = [2, 11, 19, 24, 27, 25, 20, 12, 3]
 
 

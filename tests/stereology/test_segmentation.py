@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.stereology.phantom import CAVITY, ECM, SMC, PhantomOptions, make_phantom
-from bayestissue.stereology.render import StainOptions, render_sections
-from bayestissue.stereology.segmentation import (
+from bayestissue.stereology.micrographs.phantom import CAVITY, ECM, SMC, PhantomOptions, make_phantom
+from bayestissue.stereology.micrographs.render import StainOptions, render_sections
+from bayestissue.stereology.micrographs.segmentation import (
     confusion_matrix,
     estimate_stain_vectors,
     label_fractions,

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.stereology.phantom import _ellipsoid_voxels
-from bayestissue.stereology.tracing import end_corrected_length, fit_segment, tip_deficit, trace_cells
+from bayestissue.stereology.micrographs.phantom import _ellipsoid_voxels
+from bayestissue.stereology.micrographs.tip_correction import end_corrected_length, tip_deficit
+from bayestissue.stereology.micrographs.tracing import fit_segment, trace_cells
 
 SHAPE = (60, 100, 100)
 PLANES = np.floor((np.arange(12) + 0.5) * 5).astype(int)  # 5 um sections of a 1 um volume

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
+from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology.axial import (
     axial_angle,
     fit_watson,
@@ -12,6 +13,7 @@ from bayestissue.stereology.axial import (
     sample_watson,
 )
 from bayestissue.stereology.lines import LineSystem
+from bayestissue.stereology.point_counts import PointCounts
 from bayestissue.stereology.replicates import (
     REPLICATE_COLUMNS,
     direction_bootstrap,
@@ -21,9 +23,8 @@ from bayestissue.stereology.replicates import (
     replicate_table,
     stereology_replicates,
 )
-from bayestissue.stereology.sections import PointCounts, fraction_covariance
+from bayestissue.stereology.sections import fraction_covariance
 from bayestissue.stereology.uncertainty import (
-    PAPER_DIRECTIONS,
     align_axes,
     bootstrap_cells,
     cluster_fraction_bootstrap,
@@ -123,7 +124,7 @@ def _cone_coverage(n_trials, n_boot, seed):
 
 
 def test_cone_coverage_quick():
-    # Watson kappa = 10, n = 50 cells: coverage of the 95 % cone (STEREOLOGY.md: about 95 %)
+    # Watson kappa = 10, n = 50 cells: coverage of the 95 % cone (docs/stereology.md: about 95 %)
     cov = _cone_coverage(60, 150, seed=4)
     assert 0.85 <= cov <= 1.0
 

@@ -25,6 +25,7 @@ from bayestissue._validation import (
     check_positive,
     check_unit_vector,
 )
+from bayestissue.paper import PAPER_DIRECTIONS
 
 __all__ = [
     "CAVITY",
@@ -40,12 +41,9 @@ __all__ = [
 #: Component codes used by the phantom, the renderer and the segmentation.
 CAVITY, ECM, SMC = 0, 1, 2
 
-#: Default fibre axes (x, y, z): the paper's three SMC directions (MODEL.md; printed rounded, |v| =
+#: Default fibre axes (x, y, z): the paper's three SMC directions (docs/model.md; printed rounded, |v| =
 #: 0.9974), normalised.
-_PAPER_AXES = tuple(
-    tuple(float(c) for c in np.asarray(v) / np.linalg.norm(v))
-    for v in ((0.0, 1.0, 0.0), (0.9369, 0.3420, 0.0), (0.9369, -0.3420, 0.0))
-)
+_PAPER_AXES = tuple(tuple(float(c) for c in v) for v in PAPER_DIRECTIONS)
 
 
 @dataclass(frozen=True)
@@ -60,7 +58,7 @@ class PhantomOptions:
     cavity_fraction : cavity volume fraction of the whole block (Kochova & Tonar 2014: about 36 %).
     cell_length_um, cell_radius_um : full length 2a and equatorial semi-axis b of the prolate cells
         (Kochova & Tonar 2014, Exp. Mech. 54:791: 72 um and 3 um).
-    axes : three (x, y, z) unit vectors, the modal axes of the Watson mixture (default: MODEL.md
+    axes : three (x, y, z) unit vectors, the modal axes of the Watson mixture (default: docs/model.md
         fibres).
     weights : mixture weights of the three axes (summing to 1).
     kappa : Watson concentration of every component (> 0: bipolar, axes concentrated about the

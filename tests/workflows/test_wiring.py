@@ -9,23 +9,24 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.identifiability.calibration import (
-    PAPER_HALF_ANGLE_DEG,
+from bayestissue.mechanics import PAPER_TISSUE, load_experiment, simulate
+from bayestissue.paper import PAPER_HALF_ANGLE_DEG, PAPER_PARAMETERS
+from bayestissue.workflows import (
+    CalibrationConfig,
     ExperimentResiduals,
     SpecimenForward,
     build_problem,
     specimen_spec,
-    tissue_with_half_angle,
 )
-from bayestissue.identifiability.propagate import (
+from bayestissue.workflows.forward import tissue_with_half_angle
+from bayestissue.workflows.propagate import (
     half_angles_deg,
     interval_width,
     pool_draws,
     replicate_tissues,
     width_ratio,
 )
-from bayestissue.identifiability.scenarios import ramp_scenario, synthetic_replica
-from bayestissue.mechanics import PAPER_PARAMETERS, PAPER_TISSUE, load_experiment, simulate
+from bayestissue.workflows.scenarios import ramp_scenario, synthetic_replica
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 P1 = np.asarray(PAPER_PARAMETERS["T1"])
@@ -66,11 +67,11 @@ def test_specimen_scale_and_angle_forwards(t2):
 
 
 def test_build_problem_with_specimen_parameter(t2):
-    prob = build_problem((t2,), specimen=("scale", "T2"))
+    prob = build_problem((t2,), CalibrationConfig(noise_options={"sd": "data"}, specimen=("scale", "T2")))
     assert prob.names[-1] == "scale" and prob.ndim == 12
     assert np.isfinite(prob.log_posterior(np.append(P1, 1.0)))
     with pytest.raises(ValidationError, match="specimen target"):
-        build_problem((t2,), specimen=("scale", "T1"))
+        build_problem((t2,), CalibrationConfig(noise_options={"sd": "data"}, specimen=("scale", "T1")))
 
 
 def test_ramp_scenario_reproduces_template_and_scales_time(t2):
@@ -136,13 +137,13 @@ def test_replicate_tissue_rejects_bad_fraction_sum():
 
 
 def test_drop_stuck_draws_removes_far_tail_only():
-    from bayestissue.identifiability.calibration import CalibrationOutcome, drop_stuck_draws
+    from bayestissue.workflows import CalibrationDraws, drop_stuck_draws
 
     rng = np.random.default_rng(3)
     draws = rng.uniform(size=(1000, 11))
     ll = -0.5 * rng.chisquare(11, size=1000)  # a healthy posterior: 2(max - ll) ~ chi2_11
     ll[:7] = -1e5  # seven draws of stuck walkers
-    o = CalibrationOutcome(
+    o = CalibrationDraws(
         "x",
         tuple("abcdefghijk"),
         np.zeros(11),
@@ -162,14 +163,14 @@ def test_drop_stuck_draws_removes_far_tail_only():
 
 @pytest.mark.slow
 def test_run_calibration_end_to_end_on_a_replica(t2):
-    from bayestissue.identifiability.calibration import CalibrationTask, run_calibration
+    from bayestissue.workflows import CalibrationTask, run_task
 
     p2 = np.asarray(PAPER_PARAMETERS["T2"])
     exp = synthetic_replica(t2, p2, sd=0.02, rng=5)
     task = CalibrationTask(
         (exp,), n_starts=0, paper_start=False, extra_starts=(tuple(p2),), n_steps=80, n_ensembles=2, keep=500, seed=1
     )
-    o = run_calibration(task)
+    o = run_task(task)
     # chi2 at the optimum: about n_obs - n_informed (143 - 3), certainly within 4 sd of chi2_143
     assert 80 < o.ls_chi2 < 143 + 4 * np.sqrt(2 * 143)
     assert o.draws.shape[1] == 11 and o.u.min() >= 0 and o.u.max() <= 1
@@ -179,21 +180,16 @@ def test_run_calibration_end_to_end_on_a_replica(t2):
 def test_tied_least_squares_reports_all_11_and_attach_posterior_expands_ties(t2, tmp_path):
     import arviz as az
 
-    from bayestissue.identifiability.calibration import (
-        MIRROR_TIES,
-        CalibrationTask,
-        attach_posterior,
-        run_calibration,
-    )
-    from bayestissue.inference import paper_parameter_set
     from bayestissue.io.results import write_inference_data
+    from bayestissue.paper import MIRROR_TIES
+    from bayestissue.workflows import CalibrationTask, attach_posterior, paper_parameter_set, run_task
 
     p2 = np.asarray(PAPER_PARAMETERS["T2"])
     exp = synthetic_replica(t2, p2, sd=0.02, rng=5)
     task = CalibrationTask(
         (exp,), n_starts=0, paper_start=False, extra_starts=(tuple(p2),), n_steps=0, max_nfev=15, tied=MIRROR_TIES
     )
-    ls = run_calibration(task)
+    ls = run_task(task)
     names = paper_parameter_set().names
     assert ls.names == names and ls.ls_x.shape == (11,)
     for a, b in MIRROR_TIES:  # the tied parameter reports its target's estimate
@@ -205,12 +201,12 @@ def test_tied_least_squares_reports_all_11_and_attach_posterior_expands_ties(t2,
     post = {n: theta[..., j] for j, n in enumerate(mirror.sampled_names)}
     post["sigma_T2"] = np.full((4, 50), 0.02)
     ll = rng.normal(size=(4, 50, exp.time_s.size))
-    rhat = ",".join(f"{n}={1 + j / 1000:.4f}" for j, n in enumerate(mirror.sampled_names))
-    path = write_inference_data(
-        az.from_dict(posterior=post, log_likelihood={"T2": ll}),
-        tmp_path / "post.nc",
-        attrs={"parameters_tied": mirror.tied_text, "rhat_ensembles": rhat, "convergence": "CONVERGED: test"},
-    )
+    idata = az.from_dict(posterior=post, log_likelihood={"T2": ll})
+    for j, n in enumerate(mirror.sampled_names):  # as to_inference_data stores them: per variable, typed
+        idata.posterior[n].attrs["rhat_ensembles"] = 1 + j / 1000
+    for a, b in MIRROR_TIES:
+        idata.posterior[b].attrs.setdefault("tied", []).append(a)
+    path = write_inference_data(idata, tmp_path / "post.nc", attrs={"convergence": "CONVERGED: test"})
     o = attach_posterior(ls, path, keep=120)
     assert o.draws.shape == (120, 11) and ls.draws is None  # a copy
     idx = np.unique(np.linspace(0, 199, 120).astype(int))
@@ -233,16 +229,16 @@ def test_replicate_task_uses_the_calibration_sampler(t2):
     widths in the scaled box: ginf2 0.117, beta2 0.882); a box-coordinate DE chain of the same length
     stays near its start in ginf2 (measured: 0.002 vs 0.093; beta2 0.32 vs 0.95). An unknown coordinate
     system is refused by name."""
-    from bayestissue.identifiability.calibration import MIRROR_TIES, CalibrationTask, run_calibration
-    from bayestissue.identifiability.propagate import interval_width
-    from bayestissue.inference import paper_parameter_set
+    from bayestissue.paper import MIRROR_TIES
+    from bayestissue.workflows import CalibrationTask, paper_parameter_set, run_task
+    from bayestissue.workflows.propagate import interval_width
 
     p2 = np.asarray(PAPER_PARAMETERS["T2"])
     exp = synthetic_replica(t2, p2, sd=0.02, rng=5)
     kw = dict(n_starts=0, paper_start=False, extra_starts=(tuple(p2),), n_steps=400, n_ensembles=1, seed=3)
     kw |= dict(keep=1000, tied=MIRROR_TIES, max_nfev=60, adapt_rounds=1, adapt_steps=200)
-    ramp = run_calibration(CalibrationTask((exp,), coordinates="ramp", moves="mixture", **kw))
-    box = run_calibration(CalibrationTask((exp,), **kw))
+    ramp = run_task(CalibrationTask((exp,), coordinates="ramp", moves="mixture", **kw))
+    box = run_task(CalibrationTask((exp,), **kw))
     names = paper_parameter_set().names
     w_ramp, w_box = interval_width(ramp.u), interval_width(box.u)
     g, b = names.index("ginf2"), names.index("beta2")
@@ -250,4 +246,4 @@ def test_replicate_task_uses_the_calibration_sampler(t2):
     assert w_ramp[b] > 0.7, w_ramp[b]
     assert np.all(np.isfinite(ramp.loglik))
     with pytest.raises(ValidationError, match="coordinates"):
-        run_calibration(CalibrationTask((exp,), coordinates="polar", **kw))
+        run_task(CalibrationTask((exp,), coordinates="polar", **kw))

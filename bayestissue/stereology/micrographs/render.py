@@ -30,7 +30,7 @@ from scipy import ndimage
 from skimage.transform import EuclideanTransform, warp
 
 from bayestissue._validation import ValidationError, check_interval, check_positive
-from bayestissue.stereology.phantom import ECM, SMC, TissuePhantom
+from bayestissue.stereology.micrographs.phantom import ECM, SMC, TissuePhantom
 
 __all__ = [
     "StainOptions",

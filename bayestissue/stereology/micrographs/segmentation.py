@@ -31,7 +31,7 @@ from skimage.color import rgb2lab
 from skimage.filters import threshold_otsu
 
 from bayestissue._validation import ValidationError, check_interval
-from bayestissue.stereology.phantom import CAVITY, ECM, SMC
+from bayestissue.stereology.micrographs.phantom import CAVITY, ECM, SMC
 
 __all__ = [
     "Segmentation",

@@ -23,7 +23,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.io.stereology_files import write_point_counts
-from bayestissue.stereology.phantom import CAVITY, ECM, SMC
+from bayestissue.stereology.micrographs.phantom import CAVITY, ECM, SMC
 
 __all__ = ["COMPONENTS", "GridCounts", "grid_points", "count_points", "write_grid_counts"]
 

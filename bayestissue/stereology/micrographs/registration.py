@@ -26,7 +26,7 @@ from skimage.registration import phase_cross_correlation
 from skimage.transform import EuclideanTransform, warp, warp_polar
 
 from bayestissue._validation import ValidationError, check_positive
-from bayestissue.stereology.render import rigid_matrix
+from bayestissue.stereology.micrographs.render import rigid_matrix
 
 __all__ = [
     "RegisteredStack",

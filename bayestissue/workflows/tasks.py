@@ -1,23 +1,16 @@
-"""The real model wired for identifiability work: scaled residuals, specimen-level forwards, calibration tasks.
+"""Calibration tasks for the identifiability and T1-vs-T2 studies: picklable, deterministic in their arguments.
 
-Everything here is picklable and deterministic in its arguments, so it can be fanned out with
-:func:`bayestissue.parallel.fan_out` and cached by content hash.
+A :class:`CalibrationTask` (experiments, an optional specimen-level parameter, run settings) goes through the same
+problem as ``bayestissue fit`` (:func:`bayestissue.workflows.problem.build_problem`, noise sd known from the data
+files) to least squares (multi-start, the paper's method) and, with ``n_steps > 0``, a fixed-length emcee posterior;
+:func:`run_task` returns :class:`CalibrationDraws`: arrays in the paper's 11 parameters (tied ones expanded), ready
+for the array functions of :mod:`bayestissue.identifiability`. Tasks fan out with
+:func:`bayestissue.parallel.fan_out` and are cached by content hash.
 
-* :class:`ExperimentResiduals` -- stacked scaled residuals :math:`(y_{obs} - u(\\theta))/\\sigma` of one or
-  several experiments, for :func:`~bayestissue.identifiability.profile.profile_likelihood`, and the
-  predictions for :func:`~bayestissue.identifiability.sensitivity.scaled_sensitivities`.
-* :class:`SpecimenForward` -- the forward model of one experiment under a *specimen-level* parameter appended
-  to the 11 material parameters: ``"scale"`` multiplies every modulus (mu, kappa, ginf_k) of that
-  specimen by :math:`s` (a stiffer or softer piece of the sole, cause 3 of the paper), ``"angle"``
-  sets the in-plane half-angle :math:`\\alpha` (degrees) of fibre families 2 and 3, :math:`v_{2,3} =
-  (\\cos\\alpha, \\pm\\sin\\alpha, 0)` (the paper's directions have :math:`\\alpha = 20.05^\\circ`;
-  cause 2).
-* :class:`CalibrationTask` / :func:`run_calibration` -- least squares (multi-start, the paper's method) and
-  an emcee posterior through :mod:`bayestissue.inference` with the noise sd known from the data
-  file.
-* :func:`attach_posterior` -- the posterior of a calibration results file (``bayestissue fit`` or
-  ``studies/calibrate.py``: converged chains, tied parameters expanded to the paper's 11) attached to a
-  least-squares outcome of the same experiments.
+:func:`attach_posterior` reads the posterior of a calibration results file (``bayestissue fit`` or
+``studies/calibrate.py``: per-variable R-hat and ties stored as attributes, see
+:func:`bayestissue.inference.posterior.to_inference_data`) into the :class:`CalibrationDraws` of a least-squares task
+on the same experiments.
 """
 
 from __future__ import annotations
@@ -28,131 +21,24 @@ from pathlib import Path
 
 import numpy as np
 
-from bayestissue._validation import ValidationError, check_positive
+from bayestissue._validation import ValidationError
 from bayestissue.inference import (
-    MIRROR_TIES,
     CalibrationProblem,
-    ExperimentTerm,
-    GaussianNoise,
     ParameterSet,
-    ParameterSpec,
     SamplerOptions,
     fit_least_squares,
     fit_multistart,
     initial_walkers,
-    paper_parameter_set,
     sample_posterior,
 )
 from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.diagnostics import rhat_ensembles
 from bayestissue.inference.likelihood import _tag
 from bayestissue.io.results import read_inference_data
-from bayestissue.mechanics import Experiment, TissueConfig, simulate
+from bayestissue.workflows.config import CalibrationConfig
+from bayestissue.workflows.problem import build_problem, paper_parameter_set
 
-__all__ = [
-    "MODULI",
-    "PAPER_HALF_ANGLE_DEG",
-    "ExperimentResiduals",
-    "SpecimenForward",
-    "specimen_spec",
-    "CalibrationTask",
-    "CalibrationOutcome",
-    "build_problem",
-    "run_calibration",
-    "noise_sd",
-    "drop_stuck_draws",
-    "tissue_with_half_angle",
-    "attach_posterior",
-    "MIRROR_TIES",
-]
-
-#: Indices of the moduli (mu, kappa, ginf1, ginf2, ginf3) in the paper's parameter order.
-MODULI = (0, 1, 2, 5, 8)
-#: In-plane half-angle of the paper's fibre families 2 and 3: atan(0.3420 / 0.9369), degrees.
-PAPER_HALF_ANGLE_DEG = float(np.degrees(np.arctan2(0.3420, 0.9369)))
-
-
-def noise_sd(experiment: Experiment, default: float | None = None) -> float:
-    """The experiment's noise sd (mm) from its data file header, else ``default``; raise if neither."""
-    sd = experiment.noise_sd_mm if experiment.noise_sd_mm is not None else default
-    if sd is None:
-        raise ValidationError(
-            f"experiment {experiment.name} noise_sd_mm",
-            None,
-            "a noise sd in the data file header",
-            "or pass a default",
-        )
-    return check_positive("noise_sd_mm", sd)
-
-
-def tissue_with_half_angle(tissue: TissueConfig, alpha_deg: float) -> TissueConfig:
-    """``tissue`` with fibre families 2 and 3 at :math:`(\\cos\\alpha, \\pm\\sin\\alpha, 0)`."""
-    a = np.radians(float(alpha_deg))
-    d = np.array(tissue.directions, dtype=float)
-    if d.shape[0] != 3:
-        raise ValidationError("tissue.directions", d.shape, "three fibre families")
-    d[1] = (np.cos(a), np.sin(a), 0.0)
-    d[2] = (np.cos(a), -np.sin(a), 0.0)
-    return replace(tissue, directions=d)
-
-
-class ExperimentResiduals:
-    """Stacked scaled residuals of ``experiments`` as a function of the 11 material parameters.
-
-    ``r(theta)`` for ``theta`` (11,) -> (n_obs_total,), or (n_sets, 11) -> (n_sets, n_obs_total);
-    NaN where a solve failed. :meth:`predict` gives the stacked predictions (the same shapes).
-    """
-
-    def __init__(self, experiments, *, sd: float | None = None):
-        self.experiments = tuple(experiments)
-        if not self.experiments:
-            raise ValidationError("experiments", (), "at least one Experiment")
-        for e in self.experiments:
-            if e.displacement_mm is None:
-                raise ValidationError(f"experiment {e.name}", "no displacement data", "observed data")
-        self.sd = np.concatenate([np.full(e.time_s.size, noise_sd(e, sd)) for e in self.experiments])
-        self.observed = np.concatenate([e.displacement_mm for e in self.experiments])
-
-    def predict(self, theta) -> np.ndarray:
-        return np.concatenate([simulate(e, theta) for e in self.experiments], axis=-1)
-
-    def __call__(self, theta) -> np.ndarray:
-        return (self.observed - self.predict(theta)) / self.sd
-
-
-def specimen_spec(kind: str) -> ParameterSpec:
-    """Prior box of a specimen-level parameter: ``scale`` log-uniform on [0.05, 20]; ``angle`` uniform on
-    [0, 60] degrees (family 2/3 half-angle; the paper's 20.05 in the middle third)."""
-    if kind == "scale":
-        return ParameterSpec("scale", "1", 0.05, 20.0, prior="loguniform", value=1.0)
-    if kind == "angle":
-        return ParameterSpec("angle", "deg", 0.0, 60.0, prior="uniform", value=PAPER_HALF_ANGLE_DEG)
-    raise ValidationError("specimen parameter kind", kind, "'scale' or 'angle'")
-
-
-class SpecimenForward:
-    """Forward model of ``experiment`` taking ``(n_sets, 11 + k)``: the material parameters, then extra
-    columns; ``kind`` None ignores the extras, ``"scale"`` / ``"angle"`` use column ``column``."""
-
-    def __init__(self, experiment: Experiment, kind: str | None = None, column: int = 11):
-        if kind not in (None, "scale", "angle"):
-            raise ValidationError("kind", kind, "None, 'scale' or 'angle'")
-        self.experiment, self.kind, self.column = experiment, kind, int(column)
-
-    def __call__(self, params) -> np.ndarray:
-        p = np.atleast_2d(np.asarray(params, dtype=float))
-        mat = p[:, :11].copy()
-        if self.kind is None:
-            return simulate(self.experiment, mat)
-        extra = p[:, self.column]
-        if self.kind == "scale":
-            mat[:, list(MODULI)] *= extra[:, None]
-            return simulate(self.experiment, mat)
-        out = np.empty((p.shape[0], self.experiment.time_s.size))
-        for i in range(p.shape[0]):
-            tis = tissue_with_half_angle(self.experiment.tissue, extra[i])
-            out[i] = simulate(replace(self.experiment, tissue=tis), mat[i])
-        return out
+__all__ = ["CalibrationTask", "CalibrationDraws", "run_task", "attach_posterior", "drop_stuck_draws", "task_problem"]
 
 
 @dataclass(frozen=True)
@@ -173,7 +59,7 @@ class CalibrationTask:
     paper_start : also start from the paper's initial guess (the multi-start); False with
         ``n_starts=0`` fits only from ``extra_starts`` (warm starts, e.g. per stereology replicate).
     seed : seed of the multi-start and the sampler.
-    tied : pairs ``(name, target)``: ``name`` takes ``target``'s value (e.g. :data:`MIRROR_TIES`); the
+    tied : pairs ``(name, target)``: ``name`` takes ``target``'s value (e.g. :data:`bayestissue.paper.MIRROR_TIES`); the
         draws are still reported for all 11 parameters.
     coordinates, moves, adapt_rounds, adapt_steps : the sampler's coordinate system
         (:data:`bayestissue.inference.coordinates.COORDINATES`; sheared ones are adapted to the best
@@ -201,7 +87,7 @@ class CalibrationTask:
 
 
 @dataclass
-class CalibrationOutcome:
+class CalibrationDraws:
     """Result of :func:`run_calibration` (natural units unless stated).
 
     ``draws`` (n, p) posterior draws, ``u`` the same in the scaled box :math:`[0, 1]^p` (the space
@@ -234,35 +120,6 @@ class CalibrationOutcome:
     tied: dict = field(default_factory=dict)
 
 
-def build_problem(
-    experiments, *, specimen: tuple | None = None, sd: float | None = None, tied=(), coordinates: str = "box"
-) -> CalibrationProblem:
-    """A :class:`~bayestissue.inference.CalibrationProblem` of ``experiments`` with known noise sd, the
-    paper's box priors (log-uniform moduli and rates, uniform gamma), an optional specimen parameter,
-    optional tied parameters (pairs ``(name, target)``) and the sampler's coordinate system."""
-    material = paper_parameter_set()
-    if tied:
-        material = material.updated(tied=dict(tied))
-    if specimen is not None:
-        kind, target = specimen
-        if target not in [e.name for e in experiments]:
-            raise ValidationError("specimen target", target, f"one of {[e.name for e in experiments]}")
-        material = ParameterSet(material.specs + (specimen_spec(kind),), material.fixed_inputs)
-    terms = []
-    for e in experiments:
-        kind = specimen[0] if specimen is not None and specimen[1] == e.name else None
-        terms.append(
-            ExperimentTerm(
-                name=e.name,
-                time_s=e.time_s,
-                observed=e.displacement_mm,
-                forward=SpecimenForward(e, kind),
-                noise=GaussianNoise(sd=noise_sd(e, sd)),
-            )
-        )
-    return CalibrationProblem(terms, material, coordinates=coordinates)
-
-
 def _chi2_parts(problem: CalibrationProblem, x) -> np.ndarray:
     preds = problem.predict_material(np.atleast_2d(x))
     return np.array(
@@ -273,12 +130,21 @@ def _chi2_parts(problem: CalibrationProblem, x) -> np.ndarray:
     )
 
 
-def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
+def task_problem(task: CalibrationTask) -> CalibrationProblem:
+    """The calibration problem of a task: :func:`~bayestissue.workflows.problem.build_problem` with the noise sd
+    known from each data file, the task's ties, specimen parameter and coordinates."""
+    config = CalibrationConfig(
+        noise_options={"sd": "data"}, tied=dict(task.tied), coordinates=task.coordinates, specimen=task.specimen
+    )
+    return build_problem(task.experiments, config)
+
+
+def run_task(task: CalibrationTask) -> CalibrationDraws:
     """Least squares (paper's start + ``n_starts`` Latin-hypercube starts) then, if ``n_steps > 0``, an emcee
     posterior started around the best optimum. Runs in one process (safe inside a dask worker)."""
     if not task.experiments:
         raise ValidationError("task.experiments", (), "at least one Experiment")
-    problem = build_problem(task.experiments, specimen=task.specimen, tied=task.tied, coordinates=task.coordinates)
+    problem = task_problem(task)
     rng = np.random.default_rng(task.seed)
     t0 = time.perf_counter()
     fits = []
@@ -294,7 +160,7 @@ def run_calibration(task: CalibrationTask) -> CalibrationOutcome:
     t_ls = time.perf_counter() - t0
     parts = _chi2_parts(problem, best.x)
     untied = _untied(mat)
-    out = CalibrationOutcome(
+    out = CalibrationDraws(
         label=task.label,
         names=mat.names,
         lower=untied.lower,
@@ -366,21 +232,15 @@ def _untied(mat: ParameterSet) -> ParameterSet:
     return ParameterSet(tuple(replace(s, tied_to=None) for s in mat.specs), mat.fixed_inputs)
 
 
-def _parse_pairs(text: str) -> dict:
-    """``"a=b, c=d"`` (e.g. ParameterSet.tied_text) -> ``{"a": "b", "c": "d"}``."""
-    pairs = [t.split("=") for t in str(text).split(",") if "=" in t]
-    return {a.strip(): b.strip() for a, b in pairs}
-
-
-def attach_posterior(outcome: CalibrationOutcome, path, *, keep: int = 4000) -> CalibrationOutcome:
+def attach_posterior(outcome: CalibrationDraws, path, *, keep: int = 4000) -> CalibrationDraws:
     """A copy of the least-squares ``outcome`` with the posterior of a calibration results file.
 
     The file (:func:`bayestissue.io.results.write_inference_data`: ``bayestissue fit`` or
     ``studies/calibrate.py``) must calibrate the same experiments. Its material draws are expanded to
-    the paper's 11 parameters (a tied parameter takes its target's draw; file attribute
-    ``parameters_tied``), thinned evenly to at most ``keep``; ``u`` is their scaled box;
+    the paper's 11 parameters (a tied parameter takes its target's draw; the target variable's ``tied``
+    attribute lists the parameters tied to it), thinned evenly to at most ``keep``; ``u`` is their scaled box;
     ``loglik`` the file's pointwise log-likelihood summed per experiment (its own noise model, e.g.
-    a sampled sd); ``rhat`` the file's between-ensemble R-hat (attribute ``rhat_ensembles``);
+    a sampled sd); ``rhat`` the file's between-ensemble R-hat (each variable's ``rhat_ensembles`` attribute);
     ``sampler`` names the file and its convergence verdict. Nuisance draws (noise sd) are dropped.
     """
     box = paper_parameter_set()
@@ -393,7 +253,7 @@ def attach_posterior(outcome: CalibrationOutcome, path, *, keep: int = 4000) -> 
     have = sorted(idata.log_likelihood.data_vars)
     if have != sorted(tags):
         raise ValidationError(f"results file {path.name} experiments", have, f"the experiments {sorted(tags)}")
-    tied = _parse_pairs(attrs.get("parameters_tied", ""))
+    tied = {str(f): v for v in post.data_vars for f in np.atleast_1d(post[v].attrs.get("tied", [])).tolist()}
     missing = [n for n in outcome.names if tied.get(n, n) not in post.data_vars]
     if missing:
         raise ValidationError(f"results file {path.name}", f"no draws of {missing}", f"draws of {list(outcome.names)}")
@@ -401,11 +261,10 @@ def attach_posterior(outcome: CalibrationOutcome, path, *, keep: int = 4000) -> 
     n = draws.shape[0]
     ll = np.column_stack([idata.log_likelihood[t].values.reshape(n, -1).sum(axis=1) for t in tags])
     idx = _evenly(n, keep)
-    rh = _parse_pairs(attrs.get("rhat_ensembles", ""))  # "mu=1.0013,kappa=1.0012,..."
     out = replace(outcome)
     out.draws, out.loglik = draws[idx], ll[idx]
     out.u = box.to_unit(out.draws)
-    out.rhat = np.array([float(rh.get(tied.get(n, n), "nan")) for n in outcome.names])
+    out.rhat = np.array([float(post[tied.get(n, n)].attrs.get("rhat_ensembles", np.nan)) for n in outcome.names])
     out.acceptance = float(attrs.get("acceptance_mean", float("nan")))
     out.n_failed = int(attrs.get("n_failed_forward", 0))
     out.time_mcmc_s = float(attrs.get("sampling_time_s", float("nan")))
@@ -414,7 +273,7 @@ def attach_posterior(outcome: CalibrationOutcome, path, *, keep: int = 4000) -> 
     return out
 
 
-def drop_stuck_draws(outcome: CalibrationOutcome, *, p: float = 1e-6) -> CalibrationOutcome:
+def drop_stuck_draws(outcome: CalibrationDraws, *, p: float = 1e-6) -> CalibrationDraws:
     """Remove draws of stuck walkers: log-likelihood more than :math:`\\chi^2_{d, 1-p}/2` below the best draw.
 
     Near the mode :math:`2(\\ell_{max} - \\ell) \\sim \\chi^2_d` (d sampled parameters, tied ones not

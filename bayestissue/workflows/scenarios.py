@@ -10,7 +10,7 @@ and analysed like the real tests.
 A fibre family with relaxation rate :math:`\\beta` shows its viscosity when the loading time is
 comparable with :math:`1/\\beta`: much faster, the fibres respond with their instantaneous modulus
 :math:`g_\\infty/(1-\\gamma)`; much slower, with the equilibrium modulus :math:`g_\\infty`; in both
-limits :math:`\\beta` drops out (MODEL.md, Kelvin model).
+limits :math:`\\beta` drops out (docs/model.md, Kelvin model).
 """
 
 from __future__ import annotations

@@ -1,0 +1,137 @@
+"""The batched forward model of an experiment: :class:`ForwardModel` (what the sampler calls) and ``simulate``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bayestissue.mechanics.experiment import Experiment
+from bayestissue.mechanics.fibres import fibre_structure
+from bayestissue.mechanics.tissue import check_parameters
+from bayestissue.mechanics.uniaxial import solve_uniaxial_batch
+
+__all__ = ["ForwardModel", "simulate", "SimulationResult"]
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Full output of :func:`simulate` with ``full=True``.
+
+    Attributes
+    ----------
+    displacement_mm : (n_sets, n_obs) ndarray
+        x-displacement of the loaded face at the data times; NaN rows where the solve failed.
+    ok : (n_sets,) bool ndarray
+    step_time_s : (n_steps + 1,) ndarray
+        Simulation grid.
+    step_displacement_mm : (n_sets, n_steps + 1) ndarray
+    strain : (n_sets, n_steps + 1, 6) ndarray
+        Green strain, Voigt order E11, E22, E33, E12, E13, E23.
+    tension_kpa : (n_sets, n_steps + 1, n_f) ndarray
+        Fibre tensions tau_k.
+    nominal_stress_kpa : (n_steps + 1,) ndarray
+        Applied P11.
+    iterations : (n_sets,) ndarray of int
+        Newton iterations plus line-search halvings over the whole run (cost diagnostic).
+    """
+
+    displacement_mm: np.ndarray
+    ok: np.ndarray
+    step_time_s: np.ndarray
+    step_displacement_mm: np.ndarray
+    strain: np.ndarray
+    tension_kpa: np.ndarray
+    nominal_stress_kpa: np.ndarray
+    iterations: np.ndarray
+
+
+class ForwardModel:
+    r"""The batched forward model of one experiment, with its fixed inputs computed once.
+
+    The load history :math:`P_{11}(t_n)` on the simulation grid, the fibre structure tensors
+    :math:`M_k = v_k \otimes v_k`, the contiguous volume fractions and slack strains, and the interpolation
+    from the step grid to the data times (:meth:`Experiment.interpolation`) depend on the experiment only;
+    a sampler calls the model millions of times with new parameters, so they are built here once and a call
+    does the parameter check, the kernel (:func:`~bayestissue.mechanics.uniaxial.solve_uniaxial_batch`) and
+    the interpolation. Picklable (a dask or multiprocessing worker rebuilds nothing but the object).
+
+    Parameters
+    ----------
+    experiment : Experiment
+    """
+
+    def __init__(self, experiment: Experiment):
+        tissue = experiment.tissue
+        self.experiment = experiment
+        self.names = tissue.param_names
+        self.load = experiment.nominal_stress_kpa()
+        self.structure = np.ascontiguousarray(fibre_structure(tissue.directions))
+        self.phi_fibres = np.ascontiguousarray(tissue.phi_fibres)
+        self.eps0 = np.ascontiguousarray(tissue.eps0)
+        self.index, self.weight = experiment.interpolation()
+
+    def __call__(self, params, *, full: bool = False):
+        """Displacements ``(n_sets, n_obs)`` (mm) at the data times for ``params`` ``(n_sets, n_params)``;
+        ``(n_obs,)`` for one set; a :class:`SimulationResult` if ``full`` (see :func:`simulate`)."""
+        e, tissue = self.experiment, self.experiment.tissue
+        p = check_parameters(params, self.names)
+        single = p.ndim == 1
+        p2 = np.ascontiguousarray(np.atleast_2d(p))
+        n_sets, n_t, nf = p2.shape[0], self.load.size, tissue.n_fibres
+        u = np.empty((n_sets, n_t))
+        ok = np.empty(n_sets, dtype=np.bool_)
+        strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
+        tension = np.empty((n_sets, n_t, nf) if full else (1, 1, nf))
+        iterations = np.zeros(n_sets, dtype=np.int64)
+        solve_uniaxial_batch(
+            p2,
+            self.structure,
+            self.phi_fibres,
+            tissue.phi_matrix,
+            tissue.bulk_kpa,
+            self.eps0,
+            self.load,
+            e.dt_s,
+            e.specimen_mm[0],
+            u,
+            ok,
+            strain,
+            tension,
+            full,
+            iterations,
+        )
+        i, w = self.index, self.weight
+        obs = u[:, i] * (1.0 - w) + u[:, i + 1] * w
+        if full:
+            return SimulationResult(
+                displacement_mm=obs,
+                ok=ok,
+                step_time_s=e.step_time_s,
+                step_displacement_mm=u,
+                strain=strain,
+                tension_kpa=tension,
+                nominal_stress_kpa=self.load,
+                iterations=iterations,
+            )
+        return obs[0] if single else obs
+
+
+def simulate(experiment: Experiment, params, *, full: bool = False):
+    """Simulate ``experiment`` for one or many parameter sets (one call of a new :class:`ForwardModel`).
+
+    Parameters
+    ----------
+    experiment : Experiment
+    params : (n_params,) or (n_sets, n_params) array_like
+        Material parameters in the paper's order (``experiment.tissue.param_names``). Every row is checked
+        (moduli >= 0, gamma in [0, 1), beta > 0); a bad value raises.
+    full : bool
+        Return a :class:`SimulationResult` with strains and fibre tensions on the simulation grid.
+
+    Returns
+    -------
+    (n_obs,) or (n_sets, n_obs) ndarray of displacements (mm) at ``experiment.time_s``, NaN rows for sets whose
+    solve failed; or a SimulationResult if ``full``.
+    """
+    return ForwardModel(experiment)(params, full=full)

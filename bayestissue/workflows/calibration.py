@@ -1,0 +1,204 @@
+"""The calibration pipeline: experiments + configuration -> warm start -> posterior -> results.
+
+Steps of :func:`run_calibration` (used by ``bayestissue fit`` and ``studies/calibrate.py``):
+
+1. build the problem (:func:`bayestissue.workflows.problem.build_problem`): the paper's 11 parameters with
+   Table 1 boxes and the configured priors, fixed and sampled subsets; one experiment term per experiment
+   (shared material parameters, one noise model each);
+2. the paper's least squares from its initial guess (trust-region reflective, ``x_scale`` = initial guess);
+3. multi-start least squares (Latin hypercube in the scaled box) and clustering of the optima;
+4. the sampler's coordinates adapted to the best optimum, emcee ensembles started at distinct plausible
+   optima (Laplace scatter), automatic length, diagnostics;
+5. ``InferenceData`` with provenance and the summary table (written when ``out_dir`` is given).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bayestissue.inference import (
+    CalibrationProblem,
+    ConvergenceReport,
+    LeastSquaresResult,
+    MultistartResult,
+    PosteriorSample,
+    assess_convergence,
+    fit_least_squares,
+    fit_multistart,
+    sample_posterior,
+)
+from bayestissue.inference.coordinates import adapt_coordinates
+from bayestissue.inference.posterior import to_inference_data
+from bayestissue.inference.summary import summary_table, table_markdown
+from bayestissue.workflows.config import CalibrationConfig
+from bayestissue.workflows.problem import build_problem, reference_values
+
+__all__ = ["CalibrationOutcome", "MIRROR_COORDINATES", "mirror_coordinates", "run_calibration"]
+
+log = logging.getLogger(__name__)
+
+#: Sampler coordinates of the mirror runs: the creep-curve coordinates fit a creep curve (T1); the ramp test T2
+#: and the joint run get the ramp coordinates (box sheared along the profile over the fibre viscosity and the
+#: matrix split). Measured with benchmarks/bench_sampling.py --experiment T2 --model mirror --moves mixture
+#: --walkers 36 --adapt-rounds 2 --adapt-steps 500: box R-hat 1.019-1.066 at 6000 steps (tau 340-600, acceptance
+#: 0.02-0.05); ramp CONVERGED after 2100-3900 steps, R-hat 1.0004, tau 20-25, acceptance 0.18, 85 s.
+#: Joint run (studies' default settings, 40 walkers, seed SEED): creep coordinates at a 9000 cap NOT CONVERGED
+#: (ensembles 0, 2, 3 short of 50 tau, 333 s); ramp coordinates with 2 x 500 adaptation reached the verdict only
+#: after about 12 000 steps (tau up to 240 in three ensembles, 76 in the fourth: the fitted mixtures differ);
+#: ramp with 3 x 1000 adaptation (MIRROR_ADAPT) CONVERGED after 5400-6300 steps (R-hat 1.0011, bulk ESS 4559,
+#: max tau 84; 320 s with the machine shared).
+MIRROR_COORDINATES = {"T2": "ramp", "joint": "ramp"}
+
+
+def mirror_coordinates(exp_name: str) -> str:
+    """Sampler coordinates of the mirror run ``exp_name`` (``T1``, ``T2``, ``joint``): MIRROR_COORDINATES,
+    creep-curve coordinates otherwise."""
+    return MIRROR_COORDINATES.get(exp_name, "creep")
+
+
+@dataclass
+class CalibrationOutcome:
+    """Everything :func:`run_calibration` produced."""
+
+    problem: CalibrationProblem
+    config: CalibrationConfig
+    paper_fit: LeastSquaresResult
+    multistart: MultistartResult
+    best: LeastSquaresResult
+    sample: PosteriorSample | None = None
+    report: ConvergenceReport | None = None
+    idata: object = None
+    table: dict | None = None
+    references: dict = field(default_factory=dict)
+    times_s: dict = field(default_factory=dict)
+    files: dict = field(default_factory=dict)
+
+
+def run_calibration(
+    experiments: Sequence,
+    config: CalibrationConfig | None = None,
+    *,
+    out_dir: str | Path | None = None,
+    resume: bool = False,
+    progress: Callable[[int, int, int], None] | None = None,
+    provenance: Mapping | None = None,
+) -> CalibrationOutcome:
+    """Calibrate the material parameters on one or several experiments.
+
+    Parameters
+    ----------
+    experiments : sequence of :class:`bayestissue.mechanics.Experiment`.
+    config : CalibrationConfig (default settings if None).
+    out_dir : directory for ``posterior.nc``, ``summary.csv``/``summary.md`` and the HDF5
+    checkpoints
+        (``checkpoints/ensemble_<k>.h5``); nothing is written without it.
+    resume : continue the sampler runs checkpointed in ``out_dir``.
+    progress : ``progress(ensemble_id, steps_done, max_steps)`` during sampling.
+    provenance : global attributes for the results file (version, seed, hashes: see
+        :func:`bayestissue.io.results.provenance`).
+    """
+    config = config or CalibrationConfig()
+    rng = np.random.default_rng(config.seed)
+    problem = build_problem(experiments, config)
+    times = {}
+    t0 = time.perf_counter()
+    paper_fit = fit_least_squares(problem, max_nfev=config.ls_max_nfev)
+    times["paper_least_squares"] = time.perf_counter() - t0
+    log.info("paper least squares: cost %.4g in %d iterations", paper_fit.cost, paper_fit.nit)
+    t0 = time.perf_counter()
+    multi = fit_multistart(
+        problem,
+        n_starts=config.n_starts,
+        rng=rng,
+        space="unit",
+        max_nfev=config.ls_max_nfev,
+    )
+    times["multistart"] = time.perf_counter() - t0
+    best = min([paper_fit, multi.best], key=lambda r: r.cost)
+    refs = {e.name: reference_values(e) for e in experiments}
+    outcome = CalibrationOutcome(problem, config, paper_fit, multi, best, references=refs, times_s=times)
+    if not config.sample:
+        outcome.table = summary_table(problem, best, None, None, references=refs)
+        _write(outcome, out_dir)
+        return outcome
+    t0 = time.perf_counter()
+    problem.coordinates = adapt_coordinates(problem, problem.nuisance_estimate(best.x))
+    times["coordinates"] = time.perf_counter() - t0
+    centers, covs = _ensemble_centres(problem, [paper_fit, *multi.results], best, config)
+    ckpt = None if out_dir is None else Path(out_dir) / "checkpoints"
+    t0 = time.perf_counter()
+    sample = sample_posterior(
+        problem,
+        centers,
+        cov=covs,
+        options=config.sampler,
+        checkpoint=ckpt,
+        resume=resume,
+        progress=progress,
+        rng=rng,
+    )
+    times["sampling"] = time.perf_counter() - t0
+    report = assess_convergence(sample, tau_factor=config.sampler.tau_factor)
+    attrs = dict(provenance or {})
+    attrs.update(
+        convergence=report.verdict(),
+        converged=int(report.converged),
+        acceptance_mean=float(np.mean(report.acceptance)),
+        noise_model=config.noise,
+        prior=config.prior,
+        seed=int(config.seed),
+    )
+    idata = to_inference_data(
+        sample,
+        least_squares=best,
+        max_draws=config.max_draws,
+        n_predictive=config.n_predictive,
+        attrs=attrs,
+        rhat=dict(zip(report.names, report.rhat, strict=True)),
+        rng=rng,
+    )
+    outcome.sample, outcome.report, outcome.idata = sample, report, idata
+    outcome.table = summary_table(problem, best, sample, report, references=refs)
+    _write(outcome, out_dir)
+    return outcome
+
+
+def _ensemble_centres(problem, fits, best, config):
+    """One start per ensemble: distinct least-squares optima whose cost is within
+    :math:`\\Delta\\chi^2 = 2\\Delta F / s^2 \\le 20` of the best (plausible modes), best first, cycled
+    over the ensembles. Over-dispersed starts let the between-ensemble R-hat detect modes that a
+    single start would never visit."""
+    s2 = max(best.s2, 1e-300)
+    plausible = sorted((r for r in fits if 2.0 * (r.cost - best.cost) / s2 <= 20.0), key=lambda r: r.cost)
+    distinct = []
+    for r in plausible:
+        u = problem.material.to_unit(r.x[None, :])[0]
+        if all(np.max(np.abs(u - problem.material.to_unit(d.x[None, :])[0])) > 0.02 for d in distinct):
+            distinct.append(r)
+    n = config.sampler.n_ensembles
+    chosen = [distinct[k % len(distinct)] for k in range(n)]
+    centres = problem.canonical(np.array([problem.nuisance_estimate(r.x) for r in chosen]))
+    return centres, [r.cov for r in chosen]
+
+
+def _write(outcome: CalibrationOutcome, out_dir) -> None:
+    if out_dir is None:
+        return
+    from bayestissue.io.results import write_inference_data
+    from bayestissue.io.tables import write_table
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cols, meta = outcome.table["columns"], outcome.table["meta"]
+    write_table(out / "summary.csv", cols, meta=meta)
+    (out / "summary.md").write_text(table_markdown(outcome.table))
+    outcome.files["summary_csv"] = out / "summary.csv"
+    outcome.files["summary_md"] = out / "summary.md"
+    if outcome.idata is not None:
+        outcome.files["posterior"] = write_inference_data(outcome.idata, out / "posterior.nc")

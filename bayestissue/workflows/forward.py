@@ -1,0 +1,111 @@
+r"""Forward models of experiments as the inference layer sees them: callables ``(n_sets, p) -> (n_sets, n_obs)``.
+
+A plain experiment's forward is :class:`bayestissue.mechanics.ForwardModel` itself (fixed inputs computed once).
+This module adds what the studies need beyond the material parameters:
+
+* :class:`SpecimenForward` -- one experiment under a *specimen-level* parameter appended to the 11 material
+  parameters: ``"scale"`` multiplies every modulus (mu, kappa, ginf_k) of that specimen by :math:`s` (a stiffer or
+  softer piece of the sole, cause 3 of the paper), ``"angle"`` sets the in-plane half-angle :math:`\alpha`
+  (degrees) of fibre families 2 and 3, :math:`v_{2,3} = (\cos\alpha, \pm\sin\alpha, 0)` (the paper's directions
+  have :math:`\alpha = 20.05^\circ`; cause 2).
+* :class:`ExperimentResiduals` -- stacked scaled residuals :math:`(y_{obs} - u(\theta))/\sigma` of one or several
+  experiments, for profile likelihoods and scaled sensitivities.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from bayestissue._validation import ValidationError, check_positive
+from bayestissue.inference import ParameterSpec
+from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig, simulate
+from bayestissue.paper import MODULI, PAPER_HALF_ANGLE_DEG
+
+__all__ = ["SpecimenForward", "ExperimentResiduals", "specimen_spec", "tissue_with_half_angle", "noise_sd"]
+
+
+def noise_sd(experiment: Experiment, default: float | None = None) -> float:
+    """The experiment's noise sd (mm) from its data file header, else ``default``; raise if neither."""
+    sd = experiment.noise_sd_mm if experiment.noise_sd_mm is not None else default
+    if sd is None:
+        raise ValidationError(
+            f"experiment {experiment.name} noise_sd_mm",
+            None,
+            "a noise sd in the data file header",
+            "or pass a default",
+        )
+    return check_positive("noise_sd_mm", sd)
+
+
+def tissue_with_half_angle(tissue: TissueConfig, alpha_deg: float) -> TissueConfig:
+    """``tissue`` with fibre families 2 and 3 at :math:`(\\cos\\alpha, \\pm\\sin\\alpha, 0)`."""
+    a = np.radians(float(alpha_deg))
+    d = np.array(tissue.directions, dtype=float)
+    if d.shape[0] != 3:
+        raise ValidationError("tissue.directions", d.shape, "three fibre families")
+    d[1] = (np.cos(a), np.sin(a), 0.0)
+    d[2] = (np.cos(a), -np.sin(a), 0.0)
+    return replace(tissue, directions=d)
+
+
+def specimen_spec(kind: str) -> ParameterSpec:
+    """Prior box of a specimen-level parameter: ``scale`` log-uniform on [0.05, 20]; ``angle`` uniform on
+    [0, 60] degrees (family 2/3 half-angle; the paper's 20.05 in the middle third)."""
+    if kind == "scale":
+        return ParameterSpec("scale", "1", 0.05, 20.0, prior="loguniform", value=1.0)
+    if kind == "angle":
+        return ParameterSpec("angle", "deg", 0.0, 60.0, prior="uniform", value=PAPER_HALF_ANGLE_DEG)
+    raise ValidationError("specimen parameter kind", kind, "'scale' or 'angle'")
+
+
+class SpecimenForward:
+    """Forward model of ``experiment`` taking ``(n_sets, 11 + k)``: the material parameters, then extra
+    columns; ``kind`` None ignores the extras, ``"scale"`` / ``"angle"`` use column ``column``."""
+
+    def __init__(self, experiment: Experiment, kind: str | None = None, column: int = 11):
+        if kind not in (None, "scale", "angle"):
+            raise ValidationError("kind", kind, "None, 'scale' or 'angle'")
+        self.experiment, self.kind, self.column = experiment, kind, int(column)
+        self.model = ForwardModel(experiment)
+
+    def __call__(self, params) -> np.ndarray:
+        p = np.atleast_2d(np.asarray(params, dtype=float))
+        mat = p[:, :11].copy()
+        if self.kind is None:
+            return self.model(mat)
+        extra = p[:, self.column]
+        if self.kind == "scale":
+            mat[:, list(MODULI)] *= extra[:, None]
+            return self.model(mat)
+        out = np.empty((p.shape[0], self.experiment.time_s.size))
+        for i in range(p.shape[0]):
+            tis = tissue_with_half_angle(self.experiment.tissue, extra[i])
+            out[i] = simulate(replace(self.experiment, tissue=tis), mat[i])
+        return out
+
+
+class ExperimentResiduals:
+    """Stacked scaled residuals of ``experiments`` as a function of the 11 material parameters.
+
+    ``r(theta)`` for ``theta`` (11,) -> (n_obs_total,), or (n_sets, 11) -> (n_sets, n_obs_total);
+    NaN where a solve failed. :meth:`predict` gives the stacked predictions (the same shapes).
+    """
+
+    def __init__(self, experiments, *, sd: float | None = None):
+        self.experiments = tuple(experiments)
+        if not self.experiments:
+            raise ValidationError("experiments", (), "at least one Experiment")
+        for e in self.experiments:
+            if e.displacement_mm is None:
+                raise ValidationError(f"experiment {e.name}", "no displacement data", "observed data")
+        self.models = tuple(ForwardModel(e) for e in self.experiments)
+        self.sd = np.concatenate([np.full(e.time_s.size, noise_sd(e, sd)) for e in self.experiments])
+        self.observed = np.concatenate([e.displacement_mm for e in self.experiments])
+
+    def predict(self, theta) -> np.ndarray:
+        return np.concatenate([m(theta) for m in self.models], axis=-1)
+
+    def __call__(self, theta) -> np.ndarray:
+        return (self.observed - self.predict(theta)) / self.sd
