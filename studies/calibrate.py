@@ -38,125 +38,23 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
-from bayestissue.inference.summary import generating_fit, table_markdown  # noqa: E402
+from bayestissue.inference.summary import table_markdown  # noqa: E402
 from bayestissue.io.results import provenance, write_inference_data  # noqa: E402
 from bayestissue.io.tables import write_table  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
-from bayestissue.paper import MIRROR_TIES  # noqa: E402
 from bayestissue.plotting.inference import calibration_figures  # noqa: E402
 from bayestissue.workflows import config_from_mapping, run_calibration  # noqa: E402
-from bayestissue.workflows.calibration import mirror_coordinates  # noqa: E402
+from bayestissue.workflows.calibration_study import (  # noqa: E402
+    MODELS,
+    SEED,
+    generating_cost,
+    generating_line,
+    recovery_lines,
+    study_config,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
-SEED = 20261121
-#: Fibre families 2 and 3 are mirror images about the loading axis: exchanging their parameters leaves the
-#: displacement unchanged, so the posterior has two label-switched copies of every mode. The study restricts
-#: the prior to ginf2 >= ginf3 (CalibrationConfig.exchangeable) to remove the duplicate.
-MIRROR = [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
-#: The mirror-symmetric model: family 3 takes family 2's law (8 material parameters), sampled in the
-#: creep-curve coordinates with profile shears (bayestissue.inference.coordinates). The displacement
-#: cannot tell the two families apart, and in the paper's parameters the posterior is an L in
-#: (log mu, log kappa) joined to a thin curved ridge that emcee cannot cross in the step budget.
-TIED = dict(MIRROR_TIES)
-MODELS = {
-    "full": {"exchangeable": MIRROR},
-    "mirror": {"tied": TIED, "coordinates": "creep"},
-}
-#: Sampler settings of the mirror model per mode: 4 ndim walkers (the issue's default) and half of the moves
-#: independence proposals from a Student-t mixture fitted during discarded adaptation steps
-#: (bayestissue.inference.proposals); the automatic length stops the run once the verdict's length criterion holds.
-#: Measured on T1 (benchmarks/bench_sampling.py, 36 walkers): adaptation 3 x 1000 -> 198 s to the verdict,
-#: 2 x 500 -> 120 s (both converged); 20 walkers instead of 36: one ensemble ran to the cap (tau 457).
-MIRROR_SAMPLER = {
-    "quick": {"moves": "mixture", "adapt_rounds": 1, "adapt_steps": 60},
-    "default": {"n_walkers": None, "moves": "mixture", "max_steps": 6000, "adapt_rounds": 2, "adapt_steps": 500},
-    "full": {"n_walkers": None, "moves": "mixture"},
-}
-
-#: Sampler settings of the 11-parameter model per mode: fitted-mixture moves with one proposal shared by the four
-#: ensembles (SamplerOptions.proposal = "shared"), so that an ensemble can jump into a mode another one found.
-#: Measured at the default budget (26 walkers, 2000 steps, seed SEED): DE/snooker moves left one T1 ensemble in a
-#: second mode (R-hat 1.955) and two T2 ensembles in lower modes (R-hat 1.974; 2.199 with per-ensemble mixtures); a
-#: shared mixture brought all four ensembles together (max R-hat 1.108 on T1, 1.084 on T2), still NOT CONVERGED:
-#: within a mode tau is 200 steps at 2000 and grew to 2700-2900 at 30 000 (48 walkers, creep coordinates, 36 min).
-FULL_SAMPLER = {
-    "quick": {"moves": "mixture", "proposal": "shared", "adapt_rounds": 1, "adapt_steps": 60},
-    "default": {"moves": "mixture", "proposal": "shared", "adapt_rounds": 2, "adapt_steps": 500},
-    "full": {"moves": "mixture", "proposal": "shared"},
-}
-
-#: Step caps of the default mirror runs, aiming at the 20-minute study budget: T1 meets the length criterion
-#: between about 3400 and 9000 steps (one ensemble was still short at 6000); T2 (ramp coordinates) after 2100-3900
-#: steps; the joint run (ramp coordinates, 3 x 1000 adaptation) after 5400-6300 steps.
-MIRROR_CAPS = {"T1": 9000, "T2": 6000, "joint": 9000}
-#: Mixture adaptation of the default mirror runs where it differs from MIRROR_SAMPLER (see above).
-MIRROR_ADAPT = {"joint": {"adapt_rounds": 3, "adapt_steps": 1000}}
-
-MODES = {
-    "quick": {
-        "n_starts": 1,
-        "ls_max_nfev": 100,
-        "sampler": {
-            "n_walkers": 26,
-            "n_ensembles": 2,
-            "max_steps": 100,
-            "check_every": 50,
-            "prune_rounds": 1,
-            "prune_steps": 20,
-        },
-        "n_predictive": 100,
-        "max_draws": 1000,
-    },
-    "default": {
-        "n_starts": 6,
-        "ls_max_nfev": 400,
-        "sampler": {"n_walkers": 26, "max_steps": 2000, "check_every": 100},
-    },
-    "full": {"n_starts": 16, "ls_max_nfev": 2000, "sampler": {"max_steps": 20000}},
-}
-
-
-def _recovery_lines(name, outcome) -> list[str]:
-    cols = outcome.table["columns"]
-    if "generating" not in cols or "q05" not in cols:
-        return []
-    lines = []
-    for i, p in enumerate(cols["parameter"]):
-        g = cols["generating"][i]
-        inside = cols["q05"][i] <= g <= cols["q95"][i]
-        informed = cols["contraction"][i] >= 0.3
-        lines.append(
-            f"| {name} | {p} | {g:.4g} | {cols['q05'][i]:.4g} - {cols['q95'][i]:.4g} | "
-            f"{'yes' if inside else 'NO'} | {cols['contraction'][i]:.2f} | "
-            f"{'informed' if informed else 'prior-dominated'} |"
-        )
-    return lines
-
-
-def _generating_line(name, outcome) -> str | None:
-    """The recovery report's line on :func:`~bayestissue.inference.summary.generating_fit` (``None``
-    without generating values or stored draws; a joint run's replicas each have their own)."""
-    cols, idata = outcome.table["columns"], outcome.idata
-    per_exp = [c.removeprefix("generating_") for c in cols if c.startswith("generating_")]
-    if per_exp:
-        return f"- {name}: not computed; the replicas {', '.join(per_exp)} come from different generating values"
-    if "generating" not in cols or idata is None or "log_likelihood" not in idata.groups():
-        return None
-    gen = dict(zip(cols["parameter"], cols["generating"], strict=True))
-    problem = outcome.problem
-    if not all(n in gen and np.isfinite(gen[n]) for n in problem.names):
-        return None
-    fit = generating_fit(problem, idata, [gen[n] for n in problem.names])
-    projected = ""
-    if problem.material.tied:
-        projected = f" (the model ties {problem.material.tied_text}: each takes its leader's generating value)"
-    return (
-        f"- {name}: log-likelihood at the generating values {fit['log_lik']:.1f}{projected}; over the posterior "
-        f"draws {fit['q05']:.1f} to {fit['q95']:.1f} (5-95 %, max {fit['max']:.1f}); the generating values beat "
-        f"{100.0 * fit['share_below']:.0f} % of the draws"
-    )
 
 
 def main(argv=None) -> int:
@@ -187,16 +85,7 @@ def main(argv=None) -> int:
         name = exp_name if model == "full" else f"{exp_name}_{model}"
         paths = [args.data / f"{e}.toml" for e in exp_names]
         exps = [load_experiment(p) for p in paths]
-        mode, model_cfg = dict(MODES[key]), dict(MODELS[model])
-        if model == "full":
-            mode["sampler"] = {**mode["sampler"], **FULL_SAMPLER[key]}
-        if model == "mirror":
-            mode["sampler"] = {**mode["sampler"], **MIRROR_SAMPLER[key]}
-            if key == "default":
-                mode["sampler"]["max_steps"] = MIRROR_CAPS.get(exp_name, 6000)
-                mode["sampler"].update(MIRROR_ADAPT.get(exp_name, {}))
-            model_cfg["coordinates"] = mirror_coordinates(exp_name)
-        config = config_from_mapping(None, seed=SEED, **model_cfg, **mode)
+        config = config_from_mapping(None, **study_config(key, model, exp_name))
         prov = provenance(seed=SEED, data_paths=[f for p in paths for f in (p, p.with_suffix(".csv"))])
         prov["study"] = f"studies/calibrate.py --{key}"
         run_dir = args.runs / name
@@ -222,7 +111,7 @@ def main(argv=None) -> int:
             f"{name}: paper's least squares cost {pf.cost:.5g} ({pf.nit} iterations, {pf.time_s:.1f} s,"
             f" active bounds: {', '.join(pf.active_names()) or 'none'}); best multi-start cost "
             f"{best.cost:.5g}; cost at the generating values "
-            f"{_generating_cost(outcome, exp_name):.5g}"
+            f"{generating_cost(outcome, exp_name):.5g}"
         )
         if outcome.report is not None:
             rep = outcome.report
@@ -232,8 +121,8 @@ def main(argv=None) -> int:
                 f"{rep.ess_per_second():.2f} ESS/s, max R-hat {rep.rhat.max():.3f}, "
                 f"failed solves {outcome.sample.n_failed}/{outcome.sample.n_evaluations}"
             )
-        recovery += _recovery_lines(name, outcome)
-        fits.append(_generating_line(name, outcome))
+        recovery += recovery_lines(name, outcome)
+        fits.append(generating_line(name, outcome))
         print(f"{name}: done in {time.perf_counter() - t0:.1f} s")
     intro = (
         f"Setting: {key}. `T1`, `T2`: the paper's 11 parameters (families 2/3 folded, ginf2 >= ginf3); "
@@ -260,17 +149,6 @@ def main(argv=None) -> int:
     print(text)
     print(f"calibrate: done in {time.perf_counter() - t_all:.1f} s")
     return 0
-
-
-def _generating_cost(outcome, name) -> float:
-    refs = outcome.references.get(name, {})
-    if "generating" not in refs:
-        return float("nan")
-    problem = outcome.problem
-    mat = problem.material
-    full = np.asarray(refs["generating"], dtype=float)
-    theta = np.array([full[mat.names.index(n)] for n in mat.sampled_names])
-    return 0.5 * float(np.sum(problem.residuals(theta[None, :]) ** 2))
 
 
 if __name__ == "__main__":
