@@ -8,8 +8,9 @@ from matplotlib.colors import ListedColormap
 from matplotlib.lines import Line2D
 
 from bayestissue._validation import check_positive
+from bayestissue.stereology.rose import lambert_project
 
-__all__ = ["plot_overlay", "LABEL_COLOURS"]
+__all__ = ["plot_overlay", "plot_validation", "LABEL_COLOURS"]
 
 #: Display colours of CAVITY, ECM, SMC.
 LABEL_COLOURS = ("#f2f2f2", "#3b6fd4", "#c8323c")
@@ -93,4 +94,95 @@ def plot_overlay(
     a0.set_title(title or "registered section")
     a1.set_title("segmentation: cavity (white), ECM (blue), SMC (red)")
     a0.legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.8)
+    return fig
+
+
+def plot_validation(main, sep):
+    """The six-panel validation figure of :func:`~bayestissue.stereology.micrographs.validation.run_chain` results
+    (default phantom ``main``, separable phantom ``sep`` or None)."""
+    fig = plt.figure(figsize=(14, 8.5), constrained_layout=True)
+    gs = fig.add_gridspec(2, 3)
+    # (a) volume fractions
+    ax = fig.add_subplot(gs[0, 0])
+    s = main["summary"]
+    names = [("smc", "smc_tissue"), ("ecm", "ecm_tissue")]
+    for i, (c, key) in enumerate(names):
+        est = s[c]["V_V"]
+        ce = s[c]["CE_q_hat"] if np.isfinite(s[c]["CE_q_hat"]) else s[c]["CE_m1"]
+        boot = main["vv_boot"][c]
+        seg_e = abs(main["seg_err"][key])
+        ax.errorbar(i - 0.1, est, yerr=2 * ce * est, fmt="o", color="C0", capsize=4,
+                    label="estimate +- 2 CE" if i == 0 else None)  # fmt: skip
+        ax.errorbar(i - 0.1, est, yerr=2 * ce * est + seg_e, fmt="none", color="C0", alpha=0.4,
+                    capsize=8, label="+ |segmentation error|" if i == 0 else None)  # fmt: skip
+        lo, hi = np.quantile(boot, [0.025, 0.975])
+        ax.plot([i + 0.1] * 2, [lo, hi], color="C1", lw=3,
+                label="parametric bootstrap 95 %" if i == 0 else None)  # fmt: skip
+        ax.plot(i, main["vf_true"][key], "k_", ms=30, mew=2, label="truth" if i == 0 else None)
+    ax.set_xticks([0, 1], ["SMC / tissue", "ECM / tissue"])
+    ax.set_ylabel("volume fraction")
+    ax.set_title("(a) point counting on SURS sections")
+    ax.legend(fontsize=7)
+    # (b) L_V
+    ax = fig.add_subplot(gs[0, 1])
+    for i, r in enumerate((main, sep)):
+        if r is None:
+            continue
+        lo, hi = np.quantile(r["lv_boot"], [0.025, 0.975])
+        ax.errorbar(i, r["lv"], yerr=[[r["lv"] - lo], [hi - r["lv"]]], fmt="o", capsize=4,
+                    color="C0", label="traced (cell bootstrap 95 %)" if i == 0 else None)  # fmt: skip
+        ax.plot(i, r["lv_true"], "k_", ms=30, mew=2, label="truth" if i == 0 else None)
+        ax.fill_between([i - 0.25, i + 0.25], 0.85 * r["lv_true"], 1.15 * r["lv_true"],
+                        color="0.85", label="truth +- 15 %" if i == 0 else None)  # fmt: skip
+    ax.set_xticks([0, 1], ["default\n58.9 % SMC", "separable\n42 % SMC"])
+    ax.set_xlim(-0.6, 1.6)
+    ax.set_ylabel("L_V (um^-2)")
+    ax.set_title("(b) length density")
+    ax.legend(fontsize=7)
+    # (c) registration error
+    ax = fig.add_subplot(gs[0, 2])
+    for r, name, c in ((main, "default", "C0"), (sep, "separable", "C2")):
+        if r is not None:
+            ax.plot(r["reg_err_px"], "o-", color=c, label=name)
+    ax.axhline(1.0, color="k", ls="--", lw=1, label="1 px")
+    ax.set_xlabel("section")
+    ax.set_ylabel("mean displacement error (px)")
+    ax.set_title("(c) registration error\n(template of 3 sections)")
+    ax.legend(fontsize=7)
+    # (d, e) directions: Lambert equal-area of traced pieces, estimated axes, truth
+    for k, (r, name) in enumerate(((main, "default"), (sep, "separable"))):
+        if r is None:
+            continue
+        ax = fig.add_subplot(gs[1, k])
+        tr = r["res"].traced
+        xy = lambert_project(tr.directions)
+        ax.scatter(xy[:, 0], xy[:, 1], s=3 + 30 * tr.lengths_um / tr.lengths_um.max(),
+                   alpha=0.35, color="C0", label="traced pieces")  # fmt: skip
+        est = lambert_project(r["dirs"]["axes"])
+        ta = r["true_axes"]
+        tru = lambert_project(np.concatenate([ta, -ta[np.abs(ta[:, 2]) < 0.2]]), upper=False)
+        ax.plot(est[:, 0], est[:, 1], "r^", ms=9, label="estimated axes")
+        ax.plot(tru[:, 0], tru[:, 1], "kx", ms=10, mew=2, label="true axes (both rim ends)")
+        for j in range(3):
+            ax.annotate(f"{r['dir_err_deg'][j]:.1f} deg (cone {r['dirs']['cone_deg'][j]:.1f})",
+                        est[j], fontsize=7, xytext=(4, 4), textcoords="offset points")  # fmt: skip
+        ax.add_patch(plt.Circle((0, 0), np.sqrt(2), fill=False, color="0.5"))
+        ax.set_aspect("equal")
+        ax.set_xlim(-1.5, 1.5)
+        ax.set_ylim(-1.5, 1.5)
+        ax.set_title(f"({'de'[k]}) directions, {name} phantom\n(Lambert equal-area, upper half)")
+        ax.legend(fontsize=7, loc="lower left")
+    # (f) V_V over SURS repeats vs predicted CE
+    ax = fig.add_subplot(gs[1, 2])
+    vv = main["vv_surs"]
+    ax.hist(vv, bins=20, color="C0", alpha=0.6, label="V_V(SMC) over SURS starts")
+    s_smc = main["summary"]["smc"]
+    for key, c in (("CE_m1", "C1"), ("CE_q_hat", "C3"), ("CE_classic", "C4")):
+        sd = s_smc[key] * s_smc["V_V"]
+        if np.isfinite(sd):
+            ax.axvspan(vv.mean() - sd, vv.mean() + sd, color=c, alpha=0.15, label=f"+-1 {key}")
+    ax.axvline(main["vf_true"]["smc_tissue"], color="k", lw=2, label="truth")
+    ax.set_xlabel("V_V(SMC, tissue)")
+    ax.set_title("(f) SURS spread vs predicted CE\n(one sample)")
+    ax.legend(fontsize=7)
     return fig
