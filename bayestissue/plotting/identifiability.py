@@ -21,6 +21,7 @@ __all__ = [
     "plot_cross_prediction",
     "plot_rate_study",
     "plot_widths",
+    "plot_correlations",
 ]
 
 #: Colours per analysis label.
@@ -241,3 +242,17 @@ def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], *, ax=None, 
 def plot_widths(widths: Mapping[str, np.ndarray], names: Sequence[str], *, ax=None):
     """Central 90 % interval widths (scaled box) per parameter for several posteriors (grouped bars)."""
     return plot_contraction(widths, names, ylabel="90 % interval width (scaled box u)", ax=ax)
+
+
+def plot_correlations(corr: dict, names, *, columns: dict | None = None):
+    """Posterior correlation matrices side by side (one panel per label); ``columns[label]`` selects the
+    parameters shown (e.g. the sampled, untied ones)."""
+    fig, axes = plt.subplots(1, len(corr), figsize=(5 * len(corr), 4.6))
+    for ax, (lab, c) in zip(np.atleast_1d(axes), corr.items(), strict=True):
+        js = list(range(len(names))) if columns is None else columns[lab]
+        im = ax.imshow(np.asarray(c)[np.ix_(js, js)], vmin=-1, vmax=1, cmap="RdBu_r")
+        ax.set_xticks(range(len(js)), [names[j] for j in js], rotation=90, fontsize=7)
+        ax.set_yticks(range(len(js)), [names[j] for j in js], fontsize=7)
+        ax.set_title(f"{lab}: posterior correlation (scaled box)", fontsize=9)
+    fig.colorbar(im, ax=axes, shrink=0.8)
+    return fig
