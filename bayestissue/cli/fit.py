@@ -21,7 +21,7 @@ def register(subparsers) -> None:
         description=__doc__.splitlines()[0].split(": ", 1)[1],
     )
     p.add_argument("experiments", nargs="+", metavar="EXPERIMENT", help="experiment files (TOML)")
-    p.add_argument("--config", help="calibration configuration (TOML; see bayestissue/workflows/config.py)")
+    p.add_argument("--config", help="calibration configuration (TOML; every key: docs/config.md)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--resume", action="store_true", help="continue the checkpointed sampler runs")
     p.add_argument("--seed", type=int, help="master seed (overrides the configuration)")

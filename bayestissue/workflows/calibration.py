@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bayestissue._validation import ValidationError
 from bayestissue.inference import (
     CalibrationProblem,
     ConvergenceReport,
@@ -106,6 +107,11 @@ def run_calibration(
     config = config or CalibrationConfig()
     rng = np.random.default_rng(config.seed)
     problem = build_problem(experiments, config)
+    n_walkers, least = config.sampler.n_walkers, 2 * problem.ndim + 2
+    if config.sample and n_walkers is not None and n_walkers < least:
+        raise ValidationError(
+            "[sampler] n_walkers", n_walkers, f"an integer >= {least} (2 ndim + 2, ndim = {problem.ndim}) or omitted"
+        )
     times = {}
     t0 = time.perf_counter()
     paper_fit = fit_least_squares(problem, max_nfev=config.ls_max_nfev)

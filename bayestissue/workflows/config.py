@@ -2,7 +2,8 @@
 
 :func:`load_config` reads a file (:func:`bayestissue.io.results.read_config` returns its plain mapping) and
 :func:`config_from_mapping` validates it once, section by section, into a frozen :class:`CalibrationConfig`;
-unknown sections and keys are refused by name.
+unknown sections and keys, wrong types and values out of range are refused by name (:mod:`~.schema`, rendered as
+``docs/config.md``).
 
 Configuration file (all sections and keys optional)::
 
@@ -42,7 +43,7 @@ Configuration file (all sections and keys optional)::
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from bayestissue._validation import ValidationError
@@ -50,6 +51,7 @@ from bayestissue.inference.coordinates import COORDINATES
 from bayestissue.inference.likelihood import NOISE_MODELS, make_noise
 from bayestissue.inference.sampling import SamplerOptions
 from bayestissue.io.results import read_config
+from bayestissue.workflows.schema import check_mapping
 
 __all__ = ["CalibrationConfig", "config_from_mapping", "load_config"]
 
@@ -121,15 +123,6 @@ class CalibrationConfig:
             raise ValidationError("warmstart.n_starts", self.n_starts, "an integer >= 0")
 
 
-_SECTION_KEYS = {
-    "parameters": {"prior", "fixed", "sampled", "bounds", "priors", "initial", "exchangeable", "tied"},
-    "likelihood": {"noise", "sd", "nu", "rho", "sd_bounds", "rho_bounds"},
-    "warmstart": {"n_starts", "max_nfev"},
-    "sampler": {f.name for f in fields(SamplerOptions)} | {"seed", "sample", "coordinates"},
-    "output": {"max_draws", "n_predictive"},
-}
-
-
 def config_from_mapping(cfg: Mapping | None = None, *, where: str = "configuration", **overrides) -> CalibrationConfig:
     """Build a :class:`CalibrationConfig` from a parsed TOML mapping plus keyword overrides.
 
@@ -141,14 +134,7 @@ def config_from_mapping(cfg: Mapping | None = None, *, where: str = "configurati
         For unknown sections or keys, or invalid values.
     """
     cfg = dict(cfg or {})
-    for section, table in cfg.items():
-        if section not in _SECTION_KEYS:
-            raise ValidationError(f"{where} section", section, f"one of {sorted(_SECTION_KEYS)}")
-        if not isinstance(table, Mapping):
-            raise ValidationError(f"{where} [{section}]", table, "a table of key = value entries")
-        bad = sorted(set(table) - _SECTION_KEYS[section])
-        if bad:
-            raise ValidationError(f"{where} [{section}] keys", bad, f"keys among {sorted(_SECTION_KEYS[section])}")
+    check_mapping(cfg, where=where)
     par = cfg.get("parameters", {})
     lik = dict(cfg.get("likelihood", {}))
     ws = cfg.get("warmstart", {})

@@ -31,7 +31,7 @@ def test_fit_two_parameters_writes_results(tmp_path, capsys):
     )
     assert code == 0
     text = capsys.readouterr().out
-    assert "paper's least squares" in text and "CONVERGED" in text  # NOT CONVERGED in a smoke run
+    assert "paper's least squares" in text and "NOT CONVERGED" in text  # a 300-step smoke run
     cols, meta = read_table(out / "summary.csv", required=("parameter", "ls_estimate", "median"))
     assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
     assert "ginf1=125" in meta["parameters_fixed"]
@@ -59,8 +59,20 @@ def test_fit_quick_all_parameters_with_figures_and_resume(tmp_path):
         ("[parameters]\nbounds = { mu = [10.0, 1.0] }\n", "mu bounds: expected lower < upper"),
         ("[parameters]\ninitial = { mu = 5000.0 }\n", "mu initial/fixed value: expected a value"),
         ('[parameters]\nsampled = ["nu"]\n', "sampled parameter names: expected names among"),
-        ('[likelihood]\nnoise = "cauchy"\n', "likelihood.noise: expected one of"),
-        ("[sampler]\nwalkers = 3\n", r"\[sampler\] keys: expected keys among"),
+        ('[likelihood]\nnoise = "cauchy"\n', r"cfg.toml \[likelihood\] noise: expected one of"),
+        ("[sampler]\nwalkers = 3\n", r"cfg.toml \[sampler\] keys: expected keys among"),
+        # typed values (issue 19): strings for numbers, booleans for counts, fractions for seeds, ranges
+        ('[sampler]\ntau_factor = "50"\n', r"\[sampler\] tau_factor: expected a number > 0, got '50'"),
+        ('[sampler]\nsample = "false"\n', r"\[sampler\] sample: expected true or false, got 'false'"),
+        ("[sampler]\nmax_steps = true\n", r"\[sampler\] max_steps: expected an integer >= 1, got True"),
+        ("[sampler]\nseed = 1.5\n", r"\[sampler\] seed: expected an integer >= 0, got 1.5"),
+        ("[sampler]\nn_ensembles = 1\n", r"\[sampler\] n_ensembles: expected an integer >= 2, got 1"),
+        ('[output]\nn_predictive = "x"\n', r"\[output\] n_predictive: expected an integer >= 0, got 'x'"),
+        ('[warmstart]\nmax_nfev = "x"\n', r"\[warmstart\] max_nfev: expected an integer >= 1, got 'x'"),
+        ("[parameters]\nbounds = { mu = [1, 2, 3] }\n", r"\[parameters\] bounds: expected a table name = \[lower"),
+        ('[likelihood]\nsd = "known"\n', r"\[likelihood\] sd: expected a number > 0 or \"data\""),
+        # known only once the problem is built, still before any least squares or sampling
+        ("[sampler]\nn_walkers = 4\n", r"\[sampler\] n_walkers: expected an integer >= 26 \(2 ndim \+ 2, ndim = 12\)"),
     ],
 )
 def test_fit_bad_config_exits_2(tmp_path, capsys, config, match):

@@ -1,0 +1,195 @@
+"""The calibration configuration's typed schema: every key of every section with its type, default and meaning.
+
+:func:`check_mapping` refuses an unknown section or key, a value of the wrong type (``"50"`` for a number, ``true``
+for a count: TOML booleans are not integers here) or out of range, naming the file, the section, the key, the value
+and what was expected. :func:`reference_markdown` renders the same table as ``docs/config.md`` (a test keeps the two
+equal), so the documentation cannot drift from what the code accepts.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from bayestissue._validation import ValidationError
+from bayestissue.inference.coordinates import COORDINATES
+from bayestissue.inference.likelihood import NOISE_MODELS
+from bayestissue.inference.sampling.options import MOVES, PROPOSALS
+
+__all__ = ["SCHEMA", "Key", "check_mapping", "reference_markdown"]
+
+
+@dataclass(frozen=True)
+class Key:
+    """One configuration key: ``kind`` (see :func:`_check_value`), default (text), meaning; ``low`` an inclusive
+    lower bound of a number (``low_open`` makes it exclusive); ``choices`` the allowed strings."""
+
+    kind: str
+    default: str
+    doc: str
+    low: float | None = None
+    low_open: bool = False
+    choices: tuple = ()
+
+
+SCHEMA: dict[str, dict[str, Key]] = {
+    "parameters": {
+        "prior": Key("choice", '"default"', "log-uniform moduli and rates, uniform gamma; or uniform on every box",
+                     choices=("default", "uniform")),
+        "fixed": Key("fixed", "none", "parameters held fixed: a table name -> value, or a list of names held at "
+                     "their initial value"),
+        "sampled": Key("names", "all", "sample only these parameters (the others held at their initial values)"),
+        "bounds": Key("bounds", "Table 1", "per-parameter box, name -> [lower, upper]"),
+        "priors": Key("name_text", "see prior", 'per-parameter prior, name -> "uniform" or "loguniform"'),
+        "initial": Key("name_number", "Table 1 initial guess", "per-parameter initial value, name -> value"),
+        "exchangeable": Key("groups", "none", "two parameter groups whose exchange leaves the likelihood unchanged "
+                            "(the prior keeps the first group's leading parameter the larger)"),
+        "tied": Key("name_text", "none", "name -> name whose value it takes (e.g. the mirror model: ginf3 = "
+                    '"ginf2", gamma3 = "gamma2", beta3 = "beta2")'),
+    },
+    "likelihood": {
+        "noise": Key("choice", '"gaussian"', "residual model", choices=tuple(sorted(NOISE_MODELS))),
+        "sd": Key("sd", "sampled", 'known noise sd in mm, or "data" (each data file\'s noise_sd_mm header); omit '
+                  "to sample it", low=0.0, low_open=True),
+        "nu": Key("float", "4.0", "Student-t degrees of freedom (student_t)", low=0.0, low_open=True),
+        "rho": Key("float", "sampled", "known lag-one correlation (ar1), in (-1, 1)"),
+        "sd_bounds": Key("pair", "[1e-5 ptp, ptp] of the data", "box of a sampled sd (mm)"),
+        "rho_bounds": Key("pair", "[-0.99, 0.99]", "box of a sampled rho (ar1)"),
+    },
+    "warmstart": {
+        "n_starts": Key("int", "8", "Latin-hypercube least-squares starts besides the paper's initial guess", low=0),
+        "max_nfev": Key("int", "1000", "evaluation cap of each least-squares fit", low=1),
+    },
+    "sampler": {
+        "seed": Key("int", "20261121", "master seed (starts, walkers, sampler streams, predictive noise)", low=0),
+        "sample": Key("bool", "true", "run the MCMC stage (false: least squares only)"),
+        "coordinates": Key("choice", '"box"', "the sampler's coordinates: box, creep (creep tests, families 2/3 "
+                           "tied) or ramp (force ramps)", choices=tuple(COORDINATES)),
+        "moves": Key("choice", '"de_snooker"', "emcee moves; mixture = fitted Student-t independence proposals + DE",
+                     choices=tuple(sorted(MOVES))),
+        "proposal": Key("choice", '"own"', "mixture fitted per ensemble, or one shared by all ensembles",
+                        choices=tuple(PROPOSALS)),
+        "n_walkers": Key("int", "4 ndim", "walkers per ensemble (at least 2 ndim + 2; checked once ndim is known)",
+                         low=4),
+        "n_ensembles": Key("int", "4", "independent ensembles (R-hat between them needs at least 2)", low=2),
+        "n_processes": Key("int", "min(n_ensembles, cores)", "parallel processes", low=1),
+        "max_steps": Key("int", "20000", "step cap per ensemble (pruning and adaptation steps not counted)", low=1),
+        "min_steps": Key("int", "0", "minimum steps per ensemble", low=0),
+        "check_every": Key("int", "100", "steps between convergence checks", low=1),
+        "tau_factor": Key("float", "50.0", "required length in autocorrelation times", low=0.0, low_open=True),
+        "tau_rtol": Key("float", "0.01", "required relative change of tau between checks", low=0.0, low_open=True),
+        "scatter": Key("float", "1.0", "multiplier of the Laplace sd for the initial walkers", low=0.0,
+                       low_open=True),
+        "prune_rounds": Key("int", "3", "discarded pre-run chunks that move stuck walkers (0: none)", low=0),
+        "prune_steps": Key("int", "200", "steps per pruning chunk", low=0),
+        "adapt_rounds": Key("int", "3", "adaptation rounds of the mixture proposal (discarded)", low=1),
+        "adapt_steps": Key("int", "1000", "steps per adaptation round", low=1),
+        "mixture_components": Key("int", "16", "largest number of mixture components", low=1),
+    },
+    "output": {
+        "max_draws": Key("int", "4000", "posterior draws stored in posterior.nc", low=1),
+        "n_predictive": Key("int", "400", "draws of the posterior predictive", low=0),
+    },
+}  # fmt: skip
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _expected(key: Key) -> str | None:
+    """What ``key`` expects, as the error message says it, or None where ``v`` is valid (see _check_value)."""
+    bound = "" if key.low is None else f" {'>' if key.low_open else '>='} {key.low:g}"
+    return {
+        "int": f"an integer{bound}",
+        "float": f"a number{bound}",
+        "bool": "true or false",
+        "choice": f"one of {list(key.choices)}",
+        "names": "a list of parameter names",
+        "fixed": "a table name = value or a list of names",
+        "bounds": "a table name = [lower, upper]",
+        "name_text": 'a table name = "text"',
+        "name_number": "a table name = value",
+        "groups": "two lists of parameter names of equal length",
+        "pair": "a pair [lower, upper] of numbers",
+        "sd": f'a number{bound} or "data"',
+    }[key.kind]
+
+
+def _in_range(v, key: Key) -> bool:
+    return key.low is None or (v > key.low if key.low_open else v >= key.low)
+
+
+def _valid(v, key: Key) -> bool:
+    k = key.kind
+    if k == "int":
+        return isinstance(v, int) and not isinstance(v, bool) and _in_range(v, key)
+    if k in ("float", "sd"):
+        return (k == "sd" and v == "data") or (_is_number(v) and _in_range(v, key))
+    if k == "bool":
+        return isinstance(v, bool)
+    if k == "choice":
+        return isinstance(v, str) and v in key.choices
+    if k == "names":
+        return isinstance(v, list) and all(isinstance(x, str) for x in v)
+    if k == "fixed":
+        return _valid(v, Key("names", "", "")) or _valid(v, Key("name_number", "", ""))
+    if k == "bounds":
+        return isinstance(v, Mapping) and all(_valid(x, Key("pair", "", "")) for x in v.values())
+    if k == "name_text":
+        return isinstance(v, Mapping) and all(isinstance(x, str) for x in v.values())
+    if k == "name_number":
+        return isinstance(v, Mapping) and all(_is_number(x) for x in v.values())
+    if k == "groups":
+        return (
+            isinstance(v, list)
+            and len(v) == 2
+            and all(_valid(g, Key("names", "", "")) for g in v)
+            and len(v[0]) == len(v[1]) > 0
+        )
+    if k == "pair":
+        return isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)
+    raise AssertionError(f"unknown schema kind {k!r}")  # a bug in SCHEMA, not user input
+
+
+def check_mapping(cfg: Mapping, *, where: str = "configuration") -> None:
+    """Check a parsed configuration against :data:`SCHEMA`.
+
+    Raises
+    ------
+    ValidationError
+        ``<where> [<section>] <key>: expected ..., got ...`` for the first bad entry; unknown sections and keys
+        are named with the known ones.
+    """
+    for section, table in cfg.items():
+        if section not in SCHEMA:
+            raise ValidationError(f"{where} section", section, f"one of {list(SCHEMA)}")
+        if not isinstance(table, Mapping):
+            raise ValidationError(f"{where} [{section}]", table, "a table of key = value entries")
+        known = SCHEMA[section]
+        bad = sorted(set(table) - set(known))
+        if bad:
+            raise ValidationError(f"{where} [{section}] keys", bad, f"keys among {sorted(known)}")
+        for name, value in table.items():
+            if not _valid(value, known[name]):
+                raise ValidationError(f"{where} [{section}] {name}", value, _expected(known[name]))
+
+
+def reference_markdown() -> str:
+    """The configuration reference (``docs/config.md``), rendered from :data:`SCHEMA`."""
+    lines = [
+        "# Calibration configuration reference",
+        "",
+        "<!-- Generated from bayestissue/workflows/schema.py (reference_markdown); tests/workflows/test_schema.py "
+        "keeps it equal. -->",
+        "",
+        "`bayestissue fit EXPERIMENT... --config FILE`: a TOML file; every section and key is optional. Unknown "
+        "sections and keys, values of the wrong type and values out of range are refused with the file, the key, "
+        "the value and what was expected (exit status 2).",
+    ]
+    for section, keys in SCHEMA.items():
+        lines += ["", f"## [{section}]", "", "| key | expects | default | meaning |", "|---|---|---|---|"]
+        for name, key in keys.items():
+            lines.append(f"| `{name}` | {_expected(key)} | {key.default} | {key.doc} |")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,77 @@
+"""The configuration schema: every kind of key accepted and refused by name; docs/config.md is its rendering."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bayestissue._validation import ValidationError
+from bayestissue.inference.sampling.options import SamplerOptions
+from bayestissue.workflows import config_from_mapping
+from bayestissue.workflows.schema import SCHEMA, check_mapping, reference_markdown
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_docs_config_md_is_the_rendered_schema():
+    assert (ROOT / "docs" / "config.md").read_text() == reference_markdown()
+
+
+def test_every_sampler_option_is_in_the_schema_and_nothing_else():
+    extra = {"seed", "sample", "coordinates"}  # calibration settings kept in the [sampler] section
+    assert set(SCHEMA["sampler"]) - extra == set(SamplerOptions.__dataclass_fields__)
+
+
+GOOD = {
+    "parameters": {
+        "prior": "uniform",
+        "fixed": {"ginf1": 125.0},
+        "sampled": ["mu", "kappa", "ginf2"],
+        "bounds": {"mu": [0.01, 100]},
+        "priors": {"mu": "uniform"},
+        "initial": {"mu": 5},
+        "tied": {"ginf3": "ginf2"},
+        "exchangeable": [["ginf2"], ["ginf3"]],
+    },
+    "likelihood": {"noise": "ar1", "sd": "data", "rho_bounds": [-0.5, 0.5]},
+    "warmstart": {"n_starts": 0, "max_nfev": 10},
+    "sampler": {"seed": 0, "sample": False, "n_walkers": 40, "tau_factor": 30, "moves": "mixture"},
+    "output": {"max_draws": 100, "n_predictive": 0},
+}
+
+
+def test_a_config_with_every_kind_passes():
+    check_mapping(GOOD)
+    cfg = config_from_mapping({k: v for k, v in GOOD.items() if k != "parameters"})
+    assert cfg.sampler.tau_factor == 30 and cfg.sample is False and cfg.noise_options["sd"] == "data"
+
+
+@pytest.mark.parametrize(
+    "section, key, value, expected",
+    [
+        ("parameters", "prior", "flat", r"one of \['default', 'uniform'\]"),
+        ("parameters", "fixed", {"mu": "1"}, "a table name = value or a list of names"),
+        ("parameters", "sampled", "mu", "a list of parameter names"),
+        ("parameters", "initial", {"mu": True}, "a table name = value"),
+        ("parameters", "exchangeable", [["ginf2"], ["ginf3", "gamma3"]], "two lists of parameter names of equal"),
+        ("likelihood", "nu", 0, "a number > 0"),
+        ("likelihood", "rho", float("nan"), "a number"),
+        ("warmstart", "n_starts", -1, "an integer >= 0"),
+        ("sampler", "n_walkers", 3, "an integer >= 4"),
+        ("sampler", "moves", "hmc", "one of"),
+        ("output", "max_draws", 0, "an integer >= 1"),
+    ],
+)
+def test_bad_values_are_named_with_file_section_and_key(section, key, value, expected):
+    with pytest.raises(ValidationError, match=rf"configuration fit.toml \[{section}\] {key}: expected {expected}"):
+        check_mapping({section: {key: value}}, where="configuration fit.toml")
+
+
+def test_unknown_sections_and_keys_are_refused_by_name():
+    with pytest.raises(ValidationError, match=r"configuration section: expected one of \['parameters'"):
+        check_mapping({"mcmc": {}})
+    with pytest.raises(ValidationError, match=r"\[sampler\] keys: expected keys among .*got \['walkers'\]"):
+        check_mapping({"sampler": {"walkers": 3}})
+    with pytest.raises(ValidationError, match=r"\[output\]: expected a table of key = value entries"):
+        check_mapping({"output": 3})
