@@ -20,7 +20,7 @@ map
     + [\\text{scale} = \\log]\\, \\log x,
 
 with :math:`\\sigma` the logistic function. Forgetting it ("the classic Jacobian mistake") samples
-the wrong prior; ``tests/inference/test_parameters.py`` catches it with a KS test on draws from the
+the wrong prior; ``tests/inference/test_priors_parameters.py`` catches it with a KS test on draws from the
 sampler's own path.
 
 The scaling is also the paper's (Section 2.7.1): the least-squares warm start scales each parameter
