@@ -181,7 +181,9 @@ def start_client(scheduler: str | None = None, *, n_workers: int | None = None):
     n_workers = int(n_workers)
     if n_workers < 1:
         raise ValidationError("n_workers", n_workers, "an integer >= 1")
-    cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    # dashboard on a free port: a fixed one (8787) makes two clusters on one machine (two studies, CI beside a
+    # study) fail to start
+    cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0")
     return Client(cluster)
 
 

@@ -177,7 +177,7 @@ def test_two_dimensional_shear_round_trips_and_keeps_the_log_jacobian():
 def test_config_rejects_unknown_coordinates():
     from bayestissue.workflows import config_from_mapping
 
-    expected = "sampler.coordinates: expected one of \\['box', 'creep', 'ramp'\\], got 'polar'"
+    expected = "configuration \\[sampler\\] coordinates: expected one of \\['box', 'creep', 'ramp'\\], got 'polar'"
     with pytest.raises(ValueError, match=expected):
         config_from_mapping({"sampler": {"coordinates": "polar"}})
 

@@ -152,7 +152,7 @@ def test_config_errors(tmp_path):
     unknown = tmp_path / "unknown.toml"
     unknown.write_text("[mcmc]\nseed = 1\n")
     assert read_config(unknown) == {"mcmc": {"seed": 1}}  # plain data; the schema is the workflow's
-    with pytest.raises(ValueError, match=r"configuration unknown.toml section: expected one of \['likelihood'"):
+    with pytest.raises(ValueError, match=r"configuration unknown.toml section: expected one of \['parameters', 'likel"):
         load_config(unknown)
     typo = tmp_path / "typo.toml"
     typo.write_text("[sampler]\nmax_step = 10\n")
