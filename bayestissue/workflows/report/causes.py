@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayestissue.workflows.report.text import VISC, fl, num, short
+from bayestissue.workflows.discrepancy import VISC
+from bayestissue.workflows.report.text import fl, num, short
 
 __all__ = ["causes_section"]
 

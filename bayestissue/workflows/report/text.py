@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["VISC", "ci_text", "fl", "likelihood_ratio", "num", "short"]
-
-#: The fibre viscosity parameters of families 2 and 3.
-VISC = ("gamma2", "beta2", "gamma3", "beta3")
+__all__ = ["ci_text", "fl", "likelihood_ratio", "num", "short"]
 
 
 def num(x, fmt=".3g"):
