@@ -121,6 +121,18 @@ def _in_range(v, key: Key) -> bool:
     return key.low is None or (v > key.low if key.low_open else v >= key.low)
 
 
+def _is_names(v) -> bool:
+    return isinstance(v, list) and all(isinstance(x, str) for x in v)
+
+
+def _is_pair(v) -> bool:
+    return isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)
+
+
+def _is_table(v, value_ok) -> bool:
+    return isinstance(v, Mapping) and all(value_ok(x) for x in v.values())
+
+
 def _valid(v, key: Key) -> bool:
     k = key.kind
     if k == "int":
@@ -132,24 +144,19 @@ def _valid(v, key: Key) -> bool:
     if k == "choice":
         return isinstance(v, str) and v in key.choices
     if k == "names":
-        return isinstance(v, list) and all(isinstance(x, str) for x in v)
+        return _is_names(v)
     if k == "fixed":
-        return _valid(v, Key("names", "", "")) or _valid(v, Key("name_number", "", ""))
+        return _is_names(v) or _is_table(v, _is_number)
     if k == "bounds":
-        return isinstance(v, Mapping) and all(_valid(x, Key("pair", "", "")) for x in v.values())
+        return _is_table(v, _is_pair)
     if k == "name_text":
-        return isinstance(v, Mapping) and all(isinstance(x, str) for x in v.values())
+        return _is_table(v, lambda x: isinstance(x, str))
     if k == "name_number":
-        return isinstance(v, Mapping) and all(_is_number(x) for x in v.values())
+        return _is_table(v, _is_number)
     if k == "groups":
-        return (
-            isinstance(v, list)
-            and len(v) == 2
-            and all(_valid(g, Key("names", "", "")) for g in v)
-            and len(v[0]) == len(v[1]) > 0
-        )
+        return isinstance(v, list) and len(v) == 2 and all(_is_names(g) for g in v) and len(v[0]) == len(v[1]) > 0
     if k == "pair":
-        return isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)
+        return _is_pair(v)
     raise AssertionError(f"unknown schema kind {k!r}")  # a bug in SCHEMA, not user input
 
 

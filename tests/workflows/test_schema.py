@@ -23,6 +23,35 @@ def test_every_sampler_option_is_in_the_schema_and_nothing_else():
     assert set(SCHEMA["sampler"]) - extra == set(SamplerOptions.__dataclass_fields__)
 
 
+def test_documented_defaults_are_the_code_defaults():
+    """The reference's default column for every key with a plain default equals the dataclass default."""
+    from bayestissue.inference.likelihood import StudentTNoise
+    from bayestissue.workflows import CalibrationConfig
+
+    def text(v):
+        if isinstance(v, bool):  # before the dict lookup: 0 == False and 1 == True as keys
+            return "true" if v else "false"
+        return f'"{v}"' if isinstance(v, str) else str(v)
+
+    sampler = {n: f.default for n, f in SamplerOptions.__dataclass_fields__.items() if f.default is not None}
+    config = CalibrationConfig()
+    plain = {
+        **{("sampler", n): v for n, v in sampler.items()},
+        ("sampler", "seed"): config.seed,
+        ("sampler", "sample"): config.sample,
+        ("sampler", "coordinates"): config.coordinates,
+        ("warmstart", "n_starts"): config.n_starts,
+        ("warmstart", "max_nfev"): config.ls_max_nfev,
+        ("output", "max_draws"): config.max_draws,
+        ("output", "n_predictive"): config.n_predictive,
+        ("likelihood", "noise"): config.noise,
+        ("likelihood", "nu"): StudentTNoise.nu,
+        ("parameters", "prior"): config.prior,
+    }
+    for (section, name), value in plain.items():
+        assert SCHEMA[section][name].default == text(value), (section, name)
+
+
 GOOD = {
     "parameters": {
         "prior": "uniform",
