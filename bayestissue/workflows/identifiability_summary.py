@@ -18,7 +18,6 @@ from bayestissue.workflows.identifiability import (
     SALT,
     at_bound,
     distinct,
-    experiments,
     fibre1_tension_share,
 )
 
@@ -127,6 +126,7 @@ def identifiability_summary(args, cal: dict, res: dict, pset: dict, loc: dict, p
             ],
         }
     fam1 = [NAMES.index(n) for n in ("ginf1", "gamma1", "beta1")]
+    e1, e2 = res["joint"].experiments  # the experiments the residuals were built from (T1, T2)
     summary["fibre1_check"] = {}
     for lab in LABELS:
         # tolerance = t_{B-1}(0.995) x batch-means Monte Carlo error (B = 10 contiguous batches), fixed in advance
@@ -149,9 +149,8 @@ def identifiability_summary(args, cal: dict, res: dict, pset: dict, loc: dict, p
             "n_draws": int(cal[lab].u.shape[0]),
             "pass": bool(np.all(mc["uninformed"][fam1])),
             # where fibre 1 never carries tension the likelihood is exactly flat in its parameters
-            "share_draws_fibre1_tension": fibre1_tension_share(cal[lab], experiments(args), lab),
+            "share_draws_fibre1_tension": fibre1_tension_share(cal[lab], (e1, e2), lab),
         }
-    e1, e2 = experiments(args)
     summary["fibre1_tension"] = {}
     for lab in LABELS:
         row = {}
