@@ -40,27 +40,9 @@ from bayestissue.inference.summary import summary_table, table_markdown
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.problem import build_problem, reference_values
 
-__all__ = ["CalibrationOutcome", "MIRROR_COORDINATES", "mirror_coordinates", "run_calibration"]
+__all__ = ["CalibrationOutcome", "run_calibration"]
 
 log = logging.getLogger(__name__)
-
-#: Sampler coordinates of the mirror runs: the creep-curve coordinates fit a creep curve (T1); the ramp test T2
-#: and the joint run get the ramp coordinates (box sheared along the profile over the fibre viscosity and the
-#: matrix split). Measured with benchmarks/bench_sampling.py --experiment T2 --model mirror --moves mixture
-#: --walkers 36 --adapt-rounds 2 --adapt-steps 500: box R-hat 1.019-1.066 at 6000 steps (tau 340-600, acceptance
-#: 0.02-0.05); ramp CONVERGED after 2100-3900 steps, R-hat 1.0004, tau 20-25, acceptance 0.18, 85 s.
-#: Joint run (studies' default settings, 40 walkers, seed SEED): creep coordinates at a 9000 cap NOT CONVERGED
-#: (ensembles 0, 2, 3 short of 50 tau, 333 s); ramp coordinates with 2 x 500 adaptation reached the verdict only
-#: after about 12 000 steps (tau up to 240 in three ensembles, 76 in the fourth: the fitted mixtures differ);
-#: ramp with 3 x 1000 adaptation (MIRROR_ADAPT) CONVERGED after 5400-6300 steps (R-hat 1.0011, bulk ESS 4559,
-#: max tau 84; 320 s with the machine shared).
-MIRROR_COORDINATES = {"T2": "ramp", "joint": "ramp"}
-
-
-def mirror_coordinates(exp_name: str) -> str:
-    """Sampler coordinates of the mirror run ``exp_name`` (``T1``, ``T2``, ``joint``): MIRROR_COORDINATES,
-    creep-curve coordinates otherwise."""
-    return MIRROR_COORDINATES.get(exp_name, "creep")
 
 
 @dataclass

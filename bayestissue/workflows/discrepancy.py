@@ -26,7 +26,7 @@ from bayestissue.identifiability import (
 from bayestissue.identifiability.restarts import profile_all
 from bayestissue.mechanics import simulate
 from bayestissue.paper import MIRROR_TIES, PAPER_BOUNDS, PAPER_HALF_ANGLE_DEG
-from bayestissue.workflows.calibration import mirror_coordinates
+from bayestissue.workflows.calibration_study import mirror_coordinates
 from bayestissue.workflows.forward import ExperimentResiduals
 from bayestissue.workflows.identifiability import MAX_RESTARTS, NAMES, cached_map, interior, profile_options
 from bayestissue.workflows.problem import paper_parameter_set
