@@ -10,11 +10,11 @@ is
     \\mathrm{PL}_i(t) = \\min_{\\theta:\\ \\theta_i = t} \\chi^2(\\theta) - \\chi^2(\\hat\\theta),
 
 computed by stepping :math:`t` away from the optimum in both directions (in log space for positive
-parameters) and re-optimising the other parameters with the trust-region-reflective method
-(``scipy.optimize.least_squares(method="trf")``, the method the paper used), warm-started from the
-previous step. The likelihood-based confidence interval is :math:`\\{t: \\mathrm{PL}_i(t) <
-\\Delta\\}` with :math:`\\Delta = \\chi^2_{1,0.95} = 3.84` (pointwise, Raue et al. 2009,
-doi:10.1093/bioinformatics/btp358).
+parameters) and re-optimising the other parameters with the trust-region-reflective method (the
+method the paper used; :func:`bayestissue.inference.optimize.least_squares_trf`, the warm start's
+routine), warm-started from the previous step. The likelihood-based confidence interval is
+:math:`\\{t: \\mathrm{PL}_i(t) < \\Delta\\}` with :math:`\\Delta = \\chi^2_{1,0.95} = 3.84` (pointwise,
+Raue et al. 2009, doi:10.1093/bioinformatics/btp358).
 
 Classification (Raue et al. 2009):
 
@@ -40,9 +40,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from bayestissue._validation import ValidationError, check_positive
+from bayestissue.inference.optimize import least_squares_trf
 
 __all__ = [
     "ProfileOptions",
@@ -134,8 +134,9 @@ def _as_bool_mask(log, n):
 
 
 class _Problem:
-    """Residuals in the transformed space z (log for masked parameters), with a batched
-    forward-difference Jacobian."""
+    """Residuals in the transformed space z (log for masked parameters); :meth:`fit` minimises over
+    some coordinates with :func:`~bayestissue.inference.optimize.least_squares_trf` (difference step
+    :math:`10^{-6}\\max(1, |z_k|)`)."""
 
     def __init__(self, residuals, lower, upper, log, batched, nan_residual):
         self.residuals, self.batched, self.nan = residuals, batched, nan_residual
@@ -173,33 +174,13 @@ class _Problem:
         lo, hi = self.lo[idx], self.hi[idx]
         start = np.clip(z0[idx], lo + 1e-12 * (hi - lo), hi - 1e-12 * (hi - lo))
 
-        def fun(x):
-            z = z0.copy()
-            z[idx] = x
-            return self.res(z)
+        def batch(X):
+            Z = np.repeat(z0[None, :], X.shape[0], axis=0)
+            Z[:, idx] = X
+            return self.res_many(Z)
 
-        def jac(x):
-            h = 1e-6 * np.maximum(1.0, np.abs(x))
-            Z = np.repeat(z0[None, :], len(idx) + 1, axis=0)
-            Z[:, idx] = x
-            for k in range(len(idx)):  # step away from the nearer bound
-                s = h[k] if x[k] + h[k] <= hi[k] else -h[k]
-                Z[k + 1, idx[k]] += s
-                h[k] = s
-            R = self.res_many(Z)
-            return ((R[1:] - R[0]) / h[:, None]).T
-
-        sol = least_squares(
-            fun,
-            start,
-            jac=jac,
-            bounds=(lo, hi),
-            method="trf",
-            x_scale=1.0,
-            ftol=ftol,
-            xtol=ftol,
-            gtol=ftol,
-            max_nfev=max_nfev,
+        sol = least_squares_trf(
+            batch, start, lo, hi, rel_step=1e-6, step_floor=1.0, ftol=ftol, xtol=ftol, gtol=ftol, max_nfev=max_nfev
         )
         z = z0.copy()
         z[idx] = sol.x

@@ -7,9 +7,9 @@ The paper (Section 2.7, eq. 10-11) minimises
 
 over the box with Matlab's trust-region interior-reflective method, scaling each parameter by its
 initial guess (Section 2.7.1: :math:`s_i = \\alpha^0_i`). :func:`fit_least_squares` is the same
-method, ``scipy.optimize.least_squares(method="trf", bounds=..., x_scale=s)`` (Branch, Coleman & Li
-1999, doi:10.1137/S1064827595289108), with a batched forward-difference Jacobian (one batched
-forward call per Jacobian). At the optimum it reports the Gauss-Newton covariance and Wald intervals
+method, :func:`bayestissue.inference.optimize.least_squares_trf` (scipy's trust-region reflective with
+``x_scale=s`` and a batched forward-difference Jacobian, steps :math:`\\sqrt{\\epsilon}\\max(|x_i|, s_i)`).
+At the optimum it reports the Gauss-Newton covariance and Wald intervals
 
 .. math::
 
@@ -30,10 +30,10 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.stats import norm
 
 from bayestissue._validation import ValidationError, check_interval
+from bayestissue.inference.optimize import least_squares_trf
 from bayestissue.inference.problem import CalibrationProblem
 
 __all__ = [
@@ -97,34 +97,6 @@ class LeastSquaresResult:
         return [
             f"{n} ({'lower' if a < 0 else 'upper'})" for n, a in zip(self.names, self.active, strict=False) if a != 0
         ]
-
-
-class _Jacobian:
-    """Batched forward differences of the scaled residuals in the solver's variables ``v``.
-
-    ``to_x`` maps the solver variables to the natural parameters (identity, or the scaled box).
-    """
-
-    def __init__(self, problem, to_x, lb, ub, step_scale):
-        self.problem, self.to_x, self.lb, self.ub = problem, to_x, lb, ub
-        self.step_scale = step_scale
-        self.last_v = None
-        self.last_f = None
-
-    def fun(self, v):
-        f = self.problem.residuals(self.to_x(v[None, :]))[0]
-        self.last_v, self.last_f = v.copy(), f
-        return f
-
-    def jac(self, v):
-        if self.last_v is None or not np.array_equal(v, self.last_v):
-            self.fun(v)
-        f0 = self.last_f
-        h = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(v), self.step_scale)
-        h = np.where(v + h > self.ub, -h, h)
-        vs = v[None, :] + np.diag(h)
-        fs = self.problem.residuals(self.to_x(vs))
-        return ((fs - f0[None, :]) / h[:, None]).T
 
 
 def _dx_du(mat, u):
@@ -211,20 +183,24 @@ def fit_least_squares(
         to_x, v0 = mat.from_unit, mat.to_unit(x0)
         vlb, vub = np.zeros_like(x0), np.ones_like(x0)
     step = scale if not isinstance(scale, str) else np.ones_like(x0)
-    jac = _Jacobian(problem, to_x, vlb, vub, step if space == "natural" else 1e-3 * step)
-    history, costs = [x0 / paper_scale], [0.5 * float(np.sum(jac.fun(v0) ** 2))]
+
+    def batch(v):
+        return problem.residuals(to_x(v))
+
+    history, costs = [x0 / paper_scale], [0.5 * float(np.sum(batch(v0[None, :])[0] ** 2))]
 
     def callback(intermediate_result):
         history.append(to_x(np.asarray(intermediate_result.x)[None, :])[0] / paper_scale)
         costs.append(float(intermediate_result.cost))
 
     t0 = time.perf_counter()
-    res = least_squares(
-        jac.fun,
+    res = least_squares_trf(
+        batch,
         v0,
-        jac=jac.jac,
-        bounds=(vlb, vub),
-        method="trf",
+        vlb,
+        vub,
+        rel_step=np.sqrt(np.finfo(float).eps),
+        step_floor=step if space == "natural" else 1e-3 * step,
         x_scale=scale,
         max_nfev=max_nfev,
         ftol=ftol,

@@ -28,7 +28,6 @@ from bayestissue.inference import (
     SamplerOptions,
     fit_least_squares,
     fit_multistart,
-    initial_walkers,
     sample_posterior,
 )
 from bayestissue.inference.coordinates import adapt_coordinates
@@ -189,16 +188,10 @@ def run_task(task: CalibrationTask) -> CalibrationDraws:
     )
     t1 = time.perf_counter()
     problem.coordinates = adapt_coordinates(problem, best.x)
-    try:
-        post = sample_posterior(problem, best.x, cov=best.cov, options=opts, rng=rng)
-        draws4 = post.draws()  # (n_ens, n_draws, n_walkers, ndim)
-        out.acceptance = float(np.mean([e.acceptance.mean() for e in post.ensembles]))
-        out.n_failed = int(post.n_failed)
-    except ValueError:
-        # inference.sampling fails on a NaN autocorrelation time (a short chain in which some parameter
-        # never moved); fall back to plain emcee with the same start and length, second half kept
-        draws4, out.acceptance = _plain_emcee(problem, best, opts, task.n_steps, rng)
-        out.sampler = "plain emcee (fallback)"
+    post = sample_posterior(problem, best.x, cov=best.cov, options=opts, rng=rng)
+    draws4 = post.draws()  # (n_ens, n_draws, n_walkers, ndim)
+    out.acceptance = float(np.mean([e.acceptance.mean() for e in post.ensembles]))
+    out.n_failed = int(post.n_failed)
     out.time_mcmc_s = time.perf_counter() - t1
     if draws4.shape[0] >= 2 and draws4.shape[1] >= 4:
         out.rhat = rhat_ensembles(draws4)
@@ -292,26 +285,3 @@ def drop_stuck_draws(outcome: CalibrationDraws, *, p: float = 1e-6) -> Calibrati
     out.draws, out.u, out.loglik = outcome.draws[keep], outcome.u[keep], outcome.loglik[keep]
     out.n_dropped = int((~keep).sum())
     return out
-
-
-def _plain_emcee(problem, best, opts, n_steps, rng):
-    """emcee without the automatic-length machinery: (n_ens, n_steps // 2, n_walkers, ndim) draws."""
-    import emcee
-
-    nw = opts.walkers(problem.ndim)
-    runs, acc = [], []
-    for _ in range(opts.n_ensembles):
-        p0 = initial_walkers(problem, best.x, nw, cov=best.cov, rng=rng)
-        sampler = emcee.EnsembleSampler(
-            nw,
-            problem.ndim,
-            problem.log_posterior_unconstrained,
-            vectorize=True,
-            moves=[(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)],
-        )
-        sampler.random_state = np.random.RandomState(int(rng.integers(2**32 - 1))).get_state()
-        sampler.run_mcmc(p0, n_steps)
-        z = sampler.get_chain(discard=n_steps // 2)
-        runs.append(problem.coordinates.from_unconstrained(z.reshape(-1, z.shape[-1])).reshape(z.shape))
-        acc.append(float(np.mean(sampler.acceptance_fraction)))
-    return np.stack(runs), float(np.mean(acc))
