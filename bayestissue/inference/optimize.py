@@ -19,7 +19,9 @@ differences
 cost one batched forward call of ``n_v`` rows per Jacobian, :math:`r(v)` being reused from the last
 residual evaluation at the same :math:`v` (the step points away from the upper bound so that every
 evaluated point is feasible). The callers differ only in their variables (natural units, the scaled
-box, log space with some coordinates held fixed), step rule and tolerances, which they pass in.
+box, log space with some coordinates held fixed), step rule and tolerances, which they pass in. Where the forward
+model has exact sensitivities (:meth:`bayestissue.mechanics.ForwardModel.sensitivities`) the caller passes the
+exact Jacobian instead (the paper's Section 2.7.1: the method "works best when the gradients are provided").
 """
 
 from __future__ import annotations
@@ -73,6 +75,7 @@ def least_squares_trf(
     gtol: float = 1e-10,
     max_nfev: int | None = None,
     callback: Callable | None = None,
+    jacobian: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> OptimizeResult:
     """Minimise :math:`\\tfrac12\\lVert r(v)\\rVert^2` over the box :math:`[\\ell, u]` from ``v0``.
 
@@ -83,6 +86,8 @@ def least_squares_trf(
     rel_step, step_floor : the difference step :math:`h_k = \\epsilon_{rel}\\max(|v_k|, f_k)`
         (``step_floor`` a scalar or one value per variable).
     x_scale, ftol, xtol, gtol, max_nfev, callback : passed to :func:`scipy.optimize.least_squares`.
+    jacobian : ``v -> J`` ``(n_obs, n_v)``, the exact Jacobian (e.g. from the forward model's sensitivities);
+        None: the forward differences above.
 
     Returns
     -------
@@ -94,7 +99,7 @@ def least_squares_trf(
     return least_squares(
         diff.fun,
         np.asarray(v0, dtype=float),
-        jac=diff.jac,
+        jac=diff.jac if jacobian is None else (lambda v, *_: jacobian(np.asarray(v, dtype=float))),
         bounds=(np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)),
         method="trf",
         x_scale=x_scale,

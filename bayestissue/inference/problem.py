@@ -57,6 +57,10 @@ class ExperimentTerm:
         Residual model (default: Gaussian with unknown sd).
     meta : dict
         Free-form provenance (data file, hash ...).
+    sensitivities : callable, optional
+        ``(n_sets, n_material) -> (predictions (n_sets, n_obs), derivatives (n_sets, n_obs, n_material))``: exact
+        derivatives of the predictions with respect to the forward model's inputs (NaN rows for failed solves);
+        enables :meth:`CalibrationProblem.residual_jacobian`.
     """
 
     name: str
@@ -65,6 +69,7 @@ class ExperimentTerm:
     forward: Callable[[np.ndarray], np.ndarray]
     noise: NoiseModel = field(default_factory=GaussianNoise)
     meta: dict = field(default_factory=dict)
+    sensitivities: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
 
     def __post_init__(self):
         t = np.asarray(self.time_s, dtype=float)
@@ -340,6 +345,36 @@ class CalibrationProblem:
         r = r / self.residual_scales()
         r[~np.isfinite(r)] = fail_value
         return r
+
+    @property
+    def has_sensitivities(self) -> bool:
+        """True if every experiment provides exact sensitivities (:meth:`residual_jacobian` works)."""
+        return all(e.sensitivities is not None for e in self.experiments)
+
+    def residual_jacobian(self, theta_material, *, fail_value: float = 1e6) -> tuple[np.ndarray, np.ndarray]:
+        r""":meth:`residuals` ``(n_sets, n_obs)`` and their exact Jacobian ``(n_sets, n_obs, n_material)``.
+
+        The experiments' sensitivities with respect to the forward inputs :math:`x = E\theta + x_{fixed}`
+        (:meth:`ParameterSet.expand`: fixed values inserted, tied parameters copied from their targets) are chained
+        through the constant matrix :math:`E`, :math:`\partial r/\partial\theta = (\partial y/\partial x)\, E /
+        s`. A failed solve gives the residual ``fail_value`` (a constant), hence a zero Jacobian row.
+        """
+        if not self.has_sensitivities:
+            missing = [e.name for e in self.experiments if e.sensitivities is None]
+            raise ValidationError("experiments without sensitivities", missing, "every experiment's sensitivities")
+        tm = np.atleast_2d(np.asarray(theta_material, dtype=float))
+        full = self.material.expand(tm)
+        E = self.material.expand(np.eye(self.n_material)) - self.material.expand(np.zeros(self.n_material))
+        preds, jacs = zip(*(e.sensitivities(full) for e in self.experiments), strict=True)
+        preds = self._checked(list(preds), full.shape[0])
+        r = np.concatenate([p - e.observed for p, e in zip(preds, self.experiments, strict=True)], axis=1)
+        scale = self.residual_scales()
+        r = r / scale
+        jac = np.concatenate([np.asarray(d, dtype=float) @ E.T for d in jacs], axis=1) / scale[None, :, None]
+        failed = ~np.isfinite(r)
+        r[failed] = fail_value
+        jac[np.any(failed, axis=1) | ~np.all(np.isfinite(jac), axis=(1, 2))] = 0.0
+        return r, jac
 
     def nuisance_estimate(self, theta_material) -> np.ndarray:
         """Plug-in nuisance values from the residuals at ``theta_material`` (``(n_material,)``).

@@ -130,6 +130,7 @@ def fit_least_squares(
     gtol: float = 1e-10,
     rcond: float = 1e-10,
     space: str = "natural",
+    jacobian: str = "differences",
 ) -> LeastSquaresResult:
     """Fit the sampled material parameters by bounded trust-region-reflective least squares.
 
@@ -148,6 +149,9 @@ def fit_least_squares(
         ``"unit"`` fits the scaled box coordinates :math:`u \\in [0, 1]` (log-scaled for the scale
         parameters, the sampler's scaling), which copes better with parameters spanning decades. The
         Jacobian, covariance and history are reported in natural units either way.
+    jacobian : ``"differences"`` (batched forward differences, the default) or ``"exact"`` (the forward models'
+        sensitivities, :meth:`CalibrationProblem.residual_jacobian`; chained to the scaled box for
+        ``space="unit"``).
 
     Raises
     ------
@@ -167,6 +171,10 @@ def fit_least_squares(
         raise ValidationError(f"initial guess {names[i]}", float(x0[i]), f"a value inside the box [{lb[i]}, {ub[i]}]")
     if space not in ("natural", "unit"):
         raise ValidationError("space", space, "'natural' (the paper) or 'unit' (scaled box)")
+    if jacobian not in ("differences", "exact"):
+        raise ValidationError("jacobian", jacobian, "'differences' or 'exact'")
+    if jacobian == "exact" and not problem.has_sensitivities:
+        raise ValidationError("jacobian", jacobian, "'differences' (some experiment has no exact sensitivities)")
     eps = np.finfo(float).eps
     paper_scale = np.where(np.abs(x0) > eps, np.abs(x0), 1.0)
     if isinstance(x_scale, str) and x_scale == "initial":
@@ -187,6 +195,11 @@ def fit_least_squares(
     def batch(v):
         return problem.residuals(to_x(v))
 
+    def exact(v):
+        x = to_x(v[None, :])
+        jac_x = problem.residual_jacobian(x)[1][0]
+        return jac_x if space == "natural" else jac_x * _dx_du(mat, v)[None, :]
+
     history, costs = [x0 / paper_scale], [0.5 * float(np.sum(batch(v0[None, :])[0] ** 2))]
 
     def callback(intermediate_result):
@@ -202,6 +215,7 @@ def fit_least_squares(
         rel_step=np.sqrt(np.finfo(float).eps),
         step_floor=step if space == "natural" else 1e-3 * step,
         x_scale=scale,
+        jacobian=exact if jacobian == "exact" else None,
         max_nfev=max_nfev,
         ftol=ftol,
         xtol=xtol,

@@ -8,6 +8,7 @@ import numpy as np
 
 from bayestissue.mechanics.experiment import Experiment
 from bayestissue.mechanics.fibres import fibre_structure
+from bayestissue.mechanics.sensitivity import sensitivities_uniaxial_batch
 from bayestissue.mechanics.tissue import check_parameters
 from bayestissue.mechanics.uniaxial import solve_uniaxial_batch
 
@@ -115,6 +116,41 @@ class ForwardModel:
                 iterations=iterations,
             )
         return obs[0] if single else obs
+
+    def sensitivities(self, params) -> tuple[np.ndarray, np.ndarray]:
+        r"""Displacements and their exact parameter derivatives at the data times.
+
+        Returns ``u`` ``(n_sets, n_obs)`` (mm) and ``du`` ``(n_sets, n_obs, n_params)`` with ``du[s, i, j] =
+        \partial u_i / \partial p_j`` in the parameters' own units (mm per kPa, per 1, per 1/s), from a forward run
+        and one differentiation pass over its converged states
+        (:func:`~bayestissue.mechanics.sensitivity.sensitivities_uniaxial_batch`); interpolated to the data times
+        like ``u``. ``(n_obs,)`` and ``(n_obs, n_params)`` for one set; NaN rows for failed sets.
+        """
+        p = check_parameters(params, self.names)
+        single = p.ndim == 1
+        p2 = np.ascontiguousarray(np.atleast_2d(p))
+        run = self(p2, full=True)
+        e, tissue = self.experiment, self.experiment.tissue
+        du = np.empty((p2.shape[0], self.load.size, p2.shape[1]))
+        sensitivities_uniaxial_batch(
+            p2,
+            self.structure,
+            self.phi_fibres,
+            tissue.phi_matrix,
+            tissue.bulk_kpa,
+            self.eps0,
+            self.load,
+            e.dt_s,
+            e.specimen_mm[0],
+            run.strain,
+            run.tension_kpa,
+            run.ok,
+            du,
+        )
+        i, w = self.index, self.weight
+        dobs = du[:, i, :] * (1.0 - w)[None, :, None] + du[:, i + 1, :] * w[None, :, None]
+        u = run.displacement_mm
+        return (u[0], dobs[0]) if single else (u, dobs)
 
 
 def simulate(experiment: Experiment, params, *, full: bool = False):

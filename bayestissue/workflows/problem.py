@@ -190,14 +190,16 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
     for e in experiments:
         if e.displacement_mm is None:
             raise ValidationError(f"experiment {e.name}", "no displacement_mm column", "displacement data to fit")
+        forward = _forward(e, config)
         terms.append(
             ExperimentTerm(
                 e.name,
                 e.time_s,
                 e.displacement_mm,
-                _forward(e, config),
+                forward,
                 _noise(e, config),
                 {"synthetic": bool(e.synthetic), "source": str(e.source or "")},
+                sensitivities=forward.sensitivities if isinstance(forward, ForwardModel) else None,
             )
         )
     geometry = creep_geometry(experiments, material.tied) if config.coordinates == "creep" else None
