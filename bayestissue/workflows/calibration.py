@@ -96,7 +96,7 @@ def run_calibration(
         )
     times = {}
     t0 = time.perf_counter()
-    paper_fit = fit_least_squares(problem, max_nfev=config.ls_max_nfev)
+    paper_fit = fit_least_squares(problem, max_nfev=config.ls_max_nfev, jacobian=config.ls_jacobian)
     times["paper_least_squares"] = time.perf_counter() - t0
     log.info("paper least squares: cost %.4g in %d iterations", paper_fit.cost, paper_fit.nit)
     t0 = time.perf_counter()
@@ -106,6 +106,7 @@ def run_calibration(
         rng=rng,
         space="unit",
         max_nfev=config.ls_max_nfev,
+        jacobian=config.ls_jacobian,
     )
     times["multistart"] = time.perf_counter() - t0
     best = min([paper_fit, multi.best], key=lambda r: r.cost)

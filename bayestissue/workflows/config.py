@@ -71,6 +71,7 @@ class CalibrationConfig:
         (``sd`` for a known sd, ``nu``, ``rho`` ...).
     n_starts : random starts of the multi-start least squares (the paper's start is always added).
     ls_max_nfev : evaluation cap of each least-squares run.
+    ls_jacobian : ``"differences"`` or ``"exact"`` (:func:`bayestissue.inference.fit_least_squares`).
     sample : run the MCMC stage.
     sampler : :class:`~bayestissue.inference.sampling.SamplerOptions`.
     seed : master seed (least-squares starts, walkers, sampler streams, predictive noise).
@@ -100,6 +101,7 @@ class CalibrationConfig:
     noise_options: Mapping = field(default_factory=dict)
     n_starts: int = 8
     ls_max_nfev: int = 1000
+    ls_jacobian: str = "differences"
     sample: bool = True
     sampler: SamplerOptions = field(default_factory=SamplerOptions)
     seed: int = 20261121
@@ -121,6 +123,8 @@ class CalibrationConfig:
             raise ValidationError("sampler.coordinates", self.coordinates, f"one of {list(COORDINATES)}")
         if not (isinstance(self.n_starts, int) and self.n_starts >= 0):
             raise ValidationError("warmstart.n_starts", self.n_starts, "an integer >= 0")
+        if self.ls_jacobian not in ("differences", "exact"):
+            raise ValidationError("warmstart.jacobian", self.ls_jacobian, "'differences' or 'exact'")
 
 
 def config_from_mapping(cfg: Mapping | None = None, *, where: str = "configuration", **overrides) -> CalibrationConfig:
@@ -149,6 +153,8 @@ def config_from_mapping(cfg: Mapping | None = None, *, where: str = "configurati
         kw["n_starts"] = ws["n_starts"]
     if "max_nfev" in ws:
         kw["ls_max_nfev"] = ws["max_nfev"]
+    if "jacobian" in ws:
+        kw["ls_jacobian"] = ws["jacobian"]
     for k in ("seed", "sample", "coordinates"):
         if k in smp:
             kw[k] = smp.pop(k)

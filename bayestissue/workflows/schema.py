@@ -60,6 +60,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
     "warmstart": {
         "n_starts": Key("int", "8", "Latin-hypercube least-squares starts besides the paper's initial guess", low=0),
         "max_nfev": Key("int", "1000", "evaluation cap of each least-squares fit", low=1),
+        "jacobian": Key("choice", '"differences"', "Jacobian of the least squares: batched forward differences, or "
+                        "exact (the forward model's sensitivities; not with a specimen parameter)",
+                        choices=("differences", "exact")),
     },
     "sampler": {
         "seed": Key("int", "20261121", "master seed (starts, walkers, sampler streams, predictive noise)", low=0),

@@ -57,3 +57,17 @@ def test_exact_warm_start_reaches_the_same_optimum_and_is_refused_without_sensit
         fit_least_squares(specimen, jacobian="exact")
     with pytest.raises(ValidationError, match="jacobian"):
         fit_least_squares(problem, jacobian="complex")
+
+
+def test_config_jacobian_exact_reaches_the_pipeline(experiments):
+    from bayestissue.workflows import run_calibration
+    from bayestissue.workflows.config import config_from_mapping
+
+    cfg = config_from_mapping(
+        {"warmstart": {"n_starts": 1, "max_nfev": 60, "jacobian": "exact"}, "sampler": {"sample": False}}
+    )
+    out = run_calibration(experiments[1:], cfg)
+    direct = fit_least_squares(out.problem, max_nfev=60, jacobian="exact")
+    assert out.paper_fit.cost == direct.cost and out.paper_fit.nfev == direct.nfev
+    fd = fit_least_squares(out.problem, max_nfev=60)
+    assert out.paper_fit.njev == direct.njev and (fd.nfev, fd.cost) != (direct.nfev, direct.cost)

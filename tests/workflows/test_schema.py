@@ -42,6 +42,7 @@ def test_documented_defaults_are_the_code_defaults():
         ("sampler", "coordinates"): config.coordinates,
         ("warmstart", "n_starts"): config.n_starts,
         ("warmstart", "max_nfev"): config.ls_max_nfev,
+        ("warmstart", "jacobian"): config.ls_jacobian,
         ("output", "max_draws"): config.max_draws,
         ("output", "n_predictive"): config.n_predictive,
         ("likelihood", "noise"): config.noise,
@@ -64,7 +65,7 @@ GOOD = {
         "exchangeable": [["ginf2"], ["ginf3"]],
     },
     "likelihood": {"noise": "ar1", "sd": "data", "rho_bounds": [-0.5, 0.5]},
-    "warmstart": {"n_starts": 0, "max_nfev": 10},
+    "warmstart": {"n_starts": 0, "max_nfev": 10, "jacobian": "exact"},
     "sampler": {"seed": 0, "sample": False, "n_walkers": 40, "tau_factor": 30, "moves": "mixture"},
     "output": {"max_draws": 100, "n_predictive": 0},
 }
@@ -74,6 +75,7 @@ def test_a_config_with_every_kind_passes():
     check_mapping(GOOD)
     cfg = config_from_mapping({k: v for k, v in GOOD.items() if k != "parameters"})
     assert cfg.sampler.tau_factor == 30 and cfg.sample is False and cfg.noise_options["sd"] == "data"
+    assert cfg.ls_jacobian == "exact"
 
 
 @pytest.mark.parametrize(
@@ -87,6 +89,7 @@ def test_a_config_with_every_kind_passes():
         ("likelihood", "nu", 0, "a number > 0"),
         ("likelihood", "rho", float("nan"), "a number"),
         ("warmstart", "n_starts", -1, "an integer >= 0"),
+        ("warmstart", "jacobian", "complex", "one of"),
         ("sampler", "n_walkers", 3, "an integer >= 4"),
         ("sampler", "moves", "hmc", "one of"),
         ("output", "max_draws", 0, "an integer >= 1"),
