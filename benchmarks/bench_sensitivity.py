@@ -22,22 +22,15 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+from bench_forward import draw_box  # noqa: E402  (benchmarks/ is on the path when a script here runs)
 
 from bayestissue.inference import fit_least_squares  # noqa: E402
 from bayestissue.mechanics import ForwardModel, load_experiment  # noqa: E402
-from bayestissue.paper import PAPER_BOUNDS, PAPER_PARAMETERS  # noqa: E402
+from bayestissue.paper import PAPER_PARAMETERS  # noqa: E402
 from bayestissue.workflows.config import CalibrationConfig  # noqa: E402
 from bayestissue.workflows.problem import build_problem  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def draw_box(n: int, rng) -> np.ndarray:
-    lo, hi = PAPER_BOUNDS.T
-    p = np.exp(rng.uniform(np.log(lo), np.log(hi), (n, lo.size)))
-    for j in (3, 6, 9):  # gamma: uniform
-        p[:, j] = rng.uniform(lo[j], hi[j], n)
-    return p
 
 
 def _median_time(fn, repeats):

@@ -71,6 +71,25 @@ class ForwardModel:
         self.phi_fibres = np.ascontiguousarray(tissue.phi_fibres)
         self.eps0 = np.ascontiguousarray(tissue.eps0)
         self.index, self.weight = experiment.interpolation()
+        #: the kernels' fixed inputs after the parameters, in their order (structure tensors, fibre fractions,
+        #: matrix fraction, bulk modulus, slack strains, load, step, specimen length)
+        self.kernel_inputs = (
+            self.structure,
+            self.phi_fibres,
+            tissue.phi_matrix,
+            tissue.bulk_kpa,
+            self.eps0,
+            self.load,
+            experiment.dt_s,
+            experiment.specimen_mm[0],
+        )
+
+    def at_data_times(self, steps: np.ndarray) -> np.ndarray:
+        """Interpolate ``(n_sets, n_steps + 1, ...)`` step values to the data times: ``(n_sets, n_obs, ...)``
+        (:meth:`Experiment.interpolation`)."""
+        i = self.index
+        w = self.weight.reshape((-1,) + (1,) * (steps.ndim - 2))
+        return steps[:, i] * (1.0 - w) + steps[:, i + 1] * w
 
     def __call__(self, params, *, full: bool = False):
         """Displacements ``(n_sets, n_obs)`` (mm) at the data times for ``params`` ``(n_sets, n_params)``;
@@ -85,25 +104,8 @@ class ForwardModel:
         strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
         tension = np.empty((n_sets, n_t, nf) if full else (1, 1, nf))
         iterations = np.zeros(n_sets, dtype=np.int64)
-        solve_uniaxial_batch(
-            p2,
-            self.structure,
-            self.phi_fibres,
-            tissue.phi_matrix,
-            tissue.bulk_kpa,
-            self.eps0,
-            self.load,
-            e.dt_s,
-            e.specimen_mm[0],
-            u,
-            ok,
-            strain,
-            tension,
-            full,
-            iterations,
-        )
-        i, w = self.index, self.weight
-        obs = u[:, i] * (1.0 - w) + u[:, i + 1] * w
+        solve_uniaxial_batch(p2, *self.kernel_inputs, u, ok, strain, tension, full, iterations)
+        obs = self.at_data_times(u)
         if full:
             return SimulationResult(
                 displacement_mm=obs,
@@ -130,25 +132,9 @@ class ForwardModel:
         single = p.ndim == 1
         p2 = np.ascontiguousarray(np.atleast_2d(p))
         run = self(p2, full=True)
-        e, tissue = self.experiment, self.experiment.tissue
         du = np.empty((p2.shape[0], self.load.size, p2.shape[1]))
-        sensitivities_uniaxial_batch(
-            p2,
-            self.structure,
-            self.phi_fibres,
-            tissue.phi_matrix,
-            tissue.bulk_kpa,
-            self.eps0,
-            self.load,
-            e.dt_s,
-            e.specimen_mm[0],
-            run.strain,
-            run.tension_kpa,
-            run.ok,
-            du,
-        )
-        i, w = self.index, self.weight
-        dobs = du[:, i, :] * (1.0 - w)[None, :, None] + du[:, i + 1, :] * w[None, :, None]
+        sensitivities_uniaxial_batch(p2, *self.kernel_inputs, run.strain, run.tension_kpa, run.ok, du)
+        dobs = self.at_data_times(du)
         u = run.displacement_mm
         return (u[0], dobs[0]) if single else (u, dobs)
 

@@ -39,10 +39,21 @@ import numpy as np
 from bayestissue.mechanics._jit import kernel
 from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J, right_cauchy_green
 
-__all__ = ["matrix_stress_tangent", "matrix_energy"]
+__all__ = ["matrix_stress_tangent", "matrix_energy", "matrix_modulus_derivatives"]
 
 _VI = VOIGT_I
 _VJ = VOIGT_J
+
+
+@kernel
+def _invariants(C):
+    """:math:`I_1 = \\mathrm{tr}\\, C` and :math:`I_2 = \\tfrac12 (I_1^2 - \\mathrm{tr}\\, C^2)` of the 3x3 ``C``."""
+    I1 = C[0, 0] + C[1, 1] + C[2, 2]
+    trC2 = 0.0
+    for a in range(3):
+        for b in range(3):
+            trC2 += C[a, b] * C[a, b]
+    return I1, 0.5 * (I1 * I1 - trC2)
 
 
 @kernel
@@ -56,12 +67,7 @@ def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
     if not (det > 0.0):
         return -1.0
     J = np.sqrt(det)
-    I1 = C[0, 0] + C[1, 1] + C[2, 2]
-    trC2 = 0.0
-    for a in range(3):
-        for b in range(3):
-            trC2 += C[a, b] * C[a, b]
-    I2 = 0.5 * (I1 * I1 - trC2)
+    I1, I2 = _invariants(C)
     jm23 = 1.0 / np.cbrt(det)  # J^(-2/3) = det(C)^(-1/3)
     jm43 = jm23 * jm23
     a_nh = phi_m * mu * jm23
@@ -111,11 +117,21 @@ def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
     if not (det > 0.0):
         return np.nan
     J = np.sqrt(det)
-    I1 = C[0, 0] + C[1, 1] + C[2, 2]
-    trC2 = 0.0
-    for a in range(3):
-        for b in range(3):
-            trC2 += C[a, b] * C[a, b]
-    I2 = 0.5 * (I1 * I1 - trC2)
+    I1, I2 = _invariants(C)
     jm23 = 1.0 / np.cbrt(det)
     return 0.5 * phi_m * (mu * (jm23 * I1 - 3.0) + kappa * (jm23 * jm23 * I2 - 3.0)) + 0.5 * bulk * (J - 1.0) ** 2
+
+
+@kernel
+def matrix_modulus_derivatives(J, phi_m, C, Ci, dmu, dkappa):
+    r"""``dmu``, ``dkappa`` (6,): :math:`\partial S_m/\partial\mu = \phi_m J^{-2/3}(I - \tfrac{I_1}{3} C^{-1})` and
+    :math:`\partial S_m/\partial\kappa = \phi_m J^{-4/3}(I_1 I - C - \tfrac23 I_2 C^{-1})` (the matrix stress is
+    linear in both moduli), from ``J``, ``C`` and ``Ci`` as :func:`matrix_stress_tangent` left them."""
+    I1, I2 = _invariants(C)
+    jm23 = 1.0 / np.cbrt(J * J)
+    for i in range(6):
+        a = _VI[i]
+        b = _VJ[i]
+        dab = 1.0 if a == b else 0.0
+        dmu[i] = phi_m * jm23 * (dab - I1 / 3.0 * Ci[a, b])
+        dkappa[i] = phi_m * jm23 * jm23 * (I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b])

@@ -41,6 +41,16 @@ def reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, tension_trial
     return S, tau
 
 
+_IU = np.triu_indices(3)
+
+
+def _symmetric(x) -> np.ndarray:
+    """The symmetric 3x3 tensor whose upper triangle (row by row: 11, 12, 13, 22, 23, 33) is ``x``."""
+    E = np.zeros((3, 3), dtype=np.asarray(x).dtype)
+    E[_IU] = x
+    return E + np.triu(E, 1).T
+
+
 def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_x, *, tol=1e-10):
     """Integrate one uniaxial test step by step with ``scipy.optimize.root`` on the six equations
     :math:`S(E) - P_{11}/\\sqrt{C_{11}}\\, e_1 \\otimes e_1 = 0` (docs/model.md). Slack strains are zero.
@@ -56,7 +66,6 @@ def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_
     c = 1.0 - gamma * eh
     tau_old = np.zeros(nf)
     h = np.zeros(nf)
-    iu = np.triu_indices(3)
     x = np.zeros(6)
     u = np.full(len(load), np.nan)
     u[0] = 0.0
@@ -67,20 +76,16 @@ def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_
             return np.maximum(0.0, (ginf * eps + q) / c)
 
         def residual(x, P=load[n], trial=trial):
-            E = np.zeros((3, 3))
-            E[iu] = x
-            E = E + np.triu(E, 1).T
+            E = _symmetric(x)
             S, _ = reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, trial)
             S[0, 0] -= P / np.sqrt(1.0 + 2.0 * E[0, 0])
-            return S[iu]
+            return S[_IU]
 
         sol = root(residual, x, method="lm", tol=tol)
         if not sol.success:
             break
         x = sol.x
-        E = np.zeros((3, 3))
-        E[iu] = x
-        E = E + np.triu(E, 1).T
+        E = _symmetric(x)
         _, tau = reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, trial)
         h = ea * h + eh * (tau - tau_old)
         tau_old = tau
@@ -131,7 +136,6 @@ def reference_complex_step(experiment, params, j: int, *, h: float = 1e-30, max_
     c = 1.0 - gamma * eh
     tau_old = np.where((-ginf * eps0).real > 0.0, -ginf * eps0, 0.0)
     hist = np.zeros(nf, dtype=complex)
-    iu = np.triu_indices(3)
     x = np.zeros(6, dtype=complex)
     du = np.zeros(len(load))
     for n in range(1, len(load)):
@@ -142,12 +146,10 @@ def reference_complex_step(experiment, params, j: int, *, h: float = 1e-30, max_
             return np.where(pre.real > 0.0, pre, 0.0)
 
         def residual(x, P=load[n], trial=trial):
-            E = np.zeros((3, 3), dtype=x.dtype)
-            E[iu] = x
-            E = E + np.triu(E, 1).T
+            E = _symmetric(x)
             S, tau = reference_stress(E, mu, kappa, tissue.phi_matrix, tissue.bulk_kpa, directions, phi_f, trial)
             S[0, 0] -= P / np.sqrt(1.0 + 2.0 * E[0, 0])
-            return S[iu], tau
+            return S[_IU], tau
 
         real = root(lambda xr, residual=residual: residual(xr)[0].real, x.real, method="lm", tol=1e-12)
         if not real.success:

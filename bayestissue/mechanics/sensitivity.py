@@ -54,13 +54,9 @@ from numba import njit
 from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
 from bayestissue.mechanics._jit import kernel
 from bayestissue.mechanics.fibres import fibre_stress_tangent, kelvin_step_constants
-from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J
-from bayestissue.mechanics.matrix import matrix_stress_tangent
+from bayestissue.mechanics.matrix import matrix_modulus_derivatives, matrix_stress_tangent
 
 __all__ = ["sensitivities_uniaxial_batch"]
-
-_VI = VOIGT_I
-_VJ = VOIGT_J
 
 
 @kernel
@@ -102,26 +98,6 @@ def _factor_solve6(A, B, X):
                 s -= A[i, j] * X[j, c]
             X[i, c] = s / A[i, i]
     return True
-
-
-@kernel
-def _matrix_parameter_derivatives(J, phi_m, C, Ci, dmu, dkappa):
-    """``dmu``, ``dkappa`` (6,): the derivatives of the matrix stress S_m with respect to mu and kappa (S_m is
-    linear in both), from ``C``, ``Ci`` and ``J`` as :func:`~bayestissue.mechanics.matrix.matrix_stress_tangent`
-    left them."""
-    I1 = C[0, 0] + C[1, 1] + C[2, 2]
-    trC2 = 0.0
-    for a in range(3):
-        for b in range(3):
-            trC2 += C[a, b] * C[a, b]
-    I2 = 0.5 * (I1 * I1 - trC2)
-    jm23 = 1.0 / np.cbrt(J * J)
-    for i in range(6):
-        a = _VI[i]
-        b = _VJ[i]
-        dab = 1.0 if a == b else 0.0
-        dmu[i] = phi_m * jm23 * (dab - I1 / 3.0 * Ci[a, b])
-        dkappa[i] = phi_m * jm23 * jm23 * (I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b])
 
 
 @njit(cache=True, fastmath=_FASTMATH)
@@ -198,7 +174,7 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
             if not (J > 0.0):
                 good = False
                 break
-            _matrix_parameter_derivatives(J, phi_m, C, Ci, dmu, dkappa)
+            matrix_modulus_derivatives(J, phi_m, C, Ci, dmu, dkappa)
             for k in range(nf):
                 tau_old = tension[s, n - 1, k]
                 q[k] = gamma[k] * (ea[k] * h[k] - eh[k] * tau_old)

@@ -19,11 +19,9 @@ CASES = [(key, PAPER_TISSUE) for key in ("initial", "T1", "T2")] + [("T2", SWITC
 
 def _step_sensitivities(fm, p):
     """The kernel's d u_n / d p on the simulation grid (before interpolation to the data times)."""
-    e = fm.experiment
     run = fm(p[None, :], full=True)
     du = np.empty((1, fm.load.size, p.size))
-    args = (fm.structure, fm.phi_fibres, e.tissue.phi_matrix, e.tissue.bulk_kpa, fm.eps0, fm.load, e.dt_s)
-    sensitivities_uniaxial_batch(p[None, :].copy(), *args, e.specimen_mm[0], run.strain, run.tension_kpa, run.ok, du)
+    sensitivities_uniaxial_batch(p[None, :].copy(), *fm.kernel_inputs, run.strain, run.tension_kpa, run.ok, du)
     return du[0]
 
 
@@ -49,7 +47,7 @@ def test_sensitivities_at_the_data_times_are_the_interpolated_step_sensitivities
     bad[0] = bad[1] = 0.0  # no matrix stiffness and slack-free fibres in compression: the solve fails
     u, du = fm.sensitivities(np.stack([good, bad]))
     steps = _step_sensitivities(fm, good)
-    i, w = fm.index, fm.weight
+    i, w = fm.index, fm.weight  # written out here, independently of ForwardModel.at_data_times
     np.testing.assert_array_equal(du[0], steps[i] * (1 - w)[:, None] + steps[i + 1] * w[:, None])
     np.testing.assert_array_equal(u[0], fm(good))
     assert du.shape == (2, fm.experiment.time_s.size, 11)
