@@ -315,6 +315,13 @@ class ParameterSet:
             raise ValidationError("theta", f"array of shape {theta.shape}", f"shape (n_sets, {self.n_sampled})")
         return theta
 
+    @cached_property
+    def expand_matrix(self) -> np.ndarray:
+        """``(n_total, n_sampled)``: the derivative of :meth:`expand` (1 where a parameter is the sampled one or tied
+        to it, else 0), so that ``d/dtheta f(expand(theta)) = f'(x) @ expand_matrix``."""
+        n = self.n_sampled
+        return (self.expand(np.eye(n)) - self.expand(np.zeros(n))).T
+
     def expand(self, theta) -> np.ndarray:
         """Insert the fixed values: ``(..., n_sampled) -> (..., n_total)`` in the order of
         :attr:`specs`."""

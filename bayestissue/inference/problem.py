@@ -340,8 +340,11 @@ class CalibrationProblem:
         Failed solves give ``fail_value`` (the least-squares solver cannot take NaN); they are
         counted.
         """
-        preds = self.predict_material(theta_material)
-        r = np.concatenate([p - e.observed for p, e in zip(preds, self.experiments, strict=False)], axis=1)
+        return self._scaled_residuals(self.predict_material(theta_material), fail_value)
+
+    def _scaled_residuals(self, preds: list, fail_value: float) -> np.ndarray:
+        """``(prediction - observed) / scale`` stacked over the experiments, non-finite -> ``fail_value``."""
+        r = np.concatenate([p - e.observed for p, e in zip(preds, self.experiments, strict=True)], axis=1)
         r = r / self.residual_scales()
         r[~np.isfinite(r)] = fail_value
         return r
@@ -364,16 +367,14 @@ class CalibrationProblem:
             raise ValidationError("experiments without sensitivities", missing, "every experiment's sensitivities")
         tm = np.atleast_2d(np.asarray(theta_material, dtype=float))
         full = self.material.expand(tm)
-        E = self.material.expand(np.eye(self.n_material)) - self.material.expand(np.zeros(self.n_material))
+        E = self.material.expand_matrix
         preds, jacs = zip(*(e.sensitivities(full) for e in self.experiments), strict=True)
         preds = self._checked(list(preds), full.shape[0])
-        r = np.concatenate([p - e.observed for p, e in zip(preds, self.experiments, strict=True)], axis=1)
-        scale = self.residual_scales()
-        r = r / scale
-        jac = np.concatenate([np.asarray(d, dtype=float) @ E.T for d in jacs], axis=1) / scale[None, :, None]
-        failed = ~np.isfinite(r)
-        r[failed] = fail_value
-        jac[np.any(failed, axis=1) | ~np.all(np.isfinite(jac), axis=(1, 2))] = 0.0
+        r = self._scaled_residuals(preds, fail_value)
+        failed = ~np.all([np.all(np.isfinite(p), axis=1) for p in preds], axis=0)
+        jac = np.concatenate([np.asarray(d, dtype=float) @ E for d in jacs], axis=1)
+        jac /= self.residual_scales()[None, :, None]
+        jac[failed | ~np.all(np.isfinite(jac), axis=(1, 2))] = 0.0
         return r, jac
 
     def nuisance_estimate(self, theta_material) -> np.ndarray:
