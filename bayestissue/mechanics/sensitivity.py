@@ -136,7 +136,8 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
     c = np.empty(nf)
     q = np.empty(nf)
     h = np.empty(nf)
-    dq = np.empty((nf, n_p))
+    dea = np.empty(nf)
+    deh = np.empty(nf)
     dtr = np.empty((nf, n_p))
     dtau_old = np.empty((nf, n_p))
     dtau = np.empty((nf, n_p))
@@ -155,6 +156,8 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
             beta[k] = params[s, 4 + 3 * k]
         kelvin_step_constants(gamma, beta, dt, ea, eh, c)
         for k in range(nf):
+            dea[k] = -dt * ea[k]  # d exp(-beta dt) / d beta
+            deh[k] = -0.5 * dt * eh[k]  # d exp(-beta dt / 2) / d beta
             h[k] = 0.0
             for j in range(n_p):
                 dh[k, j] = 0.0
@@ -187,26 +190,23 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
                     B[i, j] = 0.0
                 B[i, 0] = -dmu[i]
                 B[i, 1] = -dkappa[i]
+            # dtr: d(trial tension)/dp at fixed E, where the fibre is in tension; there tau (written by
+            # fibre_stress_tangent) is the trial tension itself, elsewhere dtr is not used
             for k in range(nf):
                 tau_old = tension[s, n - 1, k]
                 ig, iy, ib = 2 + 3 * k, 3 + 3 * k, 4 + 3 * k
-                dea = -dt * ea[k]
-                deh = -0.5 * dt * eh[k]
-                for j in range(n_p):
-                    dq[k, j] = gamma[k] * (ea[k] * dh[k, j] - eh[k] * dtau_old[k, j])
-                dq[k, iy] += ea[k] * h[k] - eh[k] * tau_old
-                dq[k, ib] += gamma[k] * (dea * h[k] - deh * tau_old)
+                for j in range(n_p):  # dq/dp through the history
+                    dtr[k, j] = gamma[k] * (ea[k] * dh[k, j] - eh[k] * dtau_old[k, j])
+                dtr[k, iy] += ea[k] * h[k] - eh[k] * tau_old  # explicit dq/dgamma
+                dtr[k, ib] += gamma[k] * (dea[k] * h[k] - deh[k] * tau_old)  # explicit dq/dbeta
                 eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
                 eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
-                trial = (ginf[k] * (eps - eps0[k]) + q[k]) / c[k]
-                for j in range(n_p):
-                    dtr[k, j] = dq[k, j]
                 dtr[k, ig] += eps - eps0[k]
-                dtr[k, iy] -= trial * (-eh[k])  # dc/dgamma = -eh
-                dtr[k, ib] -= trial * (-gamma[k] * deh)  # dc/dbeta = -gamma deh
+                dtr[k, iy] -= tau[k] * (-eh[k])  # dc/dgamma = -eh
+                dtr[k, ib] -= tau[k] * (-gamma[k] * deh[k])  # dc/dbeta = -gamma deh
                 for j in range(n_p):
                     dtr[k, j] /= c[k]
-                if trial > 0.0:
+                if tau[k] > 0.0:
                     for i in range(6):
                         w = phi_f[k] * M[k, i]
                         for j in range(n_p):
@@ -217,12 +217,10 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
             for k in range(nf):
                 tau_old = tension[s, n - 1, k]
                 tau_new = tension[s, n, k]
-                deh = -0.5 * dt * eh[k]
-                dea = -dt * ea[k]
-                eps_act = tau[k] > 0.0  # tau holds the trial tensions of eq. (6) at E^n
+                active = tau[k] > 0.0  # tau holds the tensions of eq. (6) at E^n
                 g = ginf[k] / c[k]
                 for j in range(n_p):
-                    if eps_act:
+                    if active:
                         deps = M[k, 0] * X[0, j] + M[k, 1] * X[1, j] + M[k, 2] * X[2, j]
                         deps += 2.0 * (M[k, 3] * X[3, j] + M[k, 4] * X[4, j] + M[k, 5] * X[5, j])
                         dtau[k, j] = dtr[k, j] + g * deps
@@ -230,7 +228,7 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
                         dtau[k, j] = 0.0
                 for j in range(n_p):
                     dh[k, j] = ea[k] * dh[k, j] + eh[k] * (dtau[k, j] - dtau_old[k, j])
-                dh[k, 4 + 3 * k] += dea * h[k] + deh * (tau_new - tau_old)
+                dh[k, 4 + 3 * k] += dea[k] * h[k] + deh[k] * (tau_new - tau_old)
                 h[k] = ea[k] * h[k] + eh[k] * (tau_new - tau_old)
                 for j in range(n_p):
                     dtau_old[k, j] = dtau[k, j]
