@@ -1,9 +1,9 @@
 """``bayestissue fit EXPERIMENT... [--config FILE] --out DIR [--resume]``: Bayesian calibration.
 
-Least squares (the paper's method, then multi-start), emcee ensembles with automatic length,
-diagnostics; writes ``posterior.nc`` (arviz InferenceData with provenance),
-``summary.csv``/``summary.md``, the figures (``*.png``) and HDF5 checkpoints (``checkpoints/``) into
-DIR, and prints the summary and the convergence verdict.
+Least squares (the paper's method, then multi-start), emcee ensembles with automatic length (or nested
+sampling runs with the evidence, ``[sampler] engine = "nested"``), diagnostics; writes ``posterior.nc`` (arviz
+InferenceData with provenance), ``summary.csv``/``summary.md``, the figures (``*.png``) and HDF5 checkpoints
+(``checkpoints/``) into DIR, and prints the summary and the convergence verdict.
 """
 
 from __future__ import annotations
@@ -68,7 +68,23 @@ def run(args) -> int:
     out = Path(args.out)
     bar = None
     progress = None
-    if config.sample and not args.no_progress:
+    if config.sample and not args.no_progress and config.engine == "nested":
+        from tqdm import tqdm
+
+        state = {}
+
+        def progress(k, n_like, n_eff, explored, log_z):
+            nonlocal bar
+            if bar is None:  # created on the first report, after the input checks
+                bar = tqdm(unit="eval", desc="nested sampling")
+            state[k] = (n_like, n_eff, explored)
+            bar.update(sum(s[0] for s in state.values()) - bar.n)
+            phases = " ".join(
+                f"run {j}: " + (f"n_eff {s[1]:.0f}/{config.nested.n_eff}" if s[2] else "exploring")
+                for j, s in sorted(state.items())
+            )
+            bar.set_postfix_str(phases)
+    elif config.sample and not args.no_progress:
         from tqdm import tqdm
 
         opts = config.sampler
@@ -82,7 +98,12 @@ def run(args) -> int:
             bar.update(sum(done.values()) - bar.n)
 
     names = ", ".join(e.name for e in experiments)
-    print(f"calibrating on {names}: least squares, then {config.sampler.n_ensembles} ensembles")
+    stage = (
+        f"{config.nested.n_runs} nested runs"
+        if config.engine == "nested"
+        else f"{config.sampler.n_ensembles} ensembles"
+    )
+    print(f"calibrating on {names}: least squares, then {stage}")
     try:
         outcome = run_calibration(
             experiments, config, out_dir=out, resume=args.resume, progress=progress, provenance=prov
@@ -104,6 +125,8 @@ def run(args) -> int:
     if outcome.report is not None:
         rep = outcome.report
         print(rep.verdict())
+        if config.engine == "nested":
+            print(f"log evidence: {outcome.sample.log_z:.3f} +- {outcome.sample.log_z_err:.3f}")
         print(
             f"sampling: {rep.time_s:.1f} s, min bulk ESS {rep.ess_bulk.min():.0f} "
             f"({rep.ess_per_second():.2f} ESS/s), failed forward solves: "

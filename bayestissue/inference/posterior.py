@@ -1,13 +1,17 @@
-"""Assemble an arviz ``InferenceData`` from a posterior sample.
+"""Assemble an arviz ``InferenceData`` from a posterior sample of either engine.
 
 Groups:
 
-* ``posterior``: the sampled parameters (natural units); one *chain* per walker, ensemble-major
-  (``constant_data.ensemble_of_chain`` maps chains to ensembles). R-hat over these chains is **not**
+* ``posterior``: the sampled parameters (natural units). emcee: one *chain* per walker, ensemble-major
+  (``constant_data.ensemble_of_chain`` maps chains to ensembles); R-hat over these chains is **not**
   valid (walkers of one ensemble interact); use
-  :func:`bayestissue.inference.diagnostics.rhat_ensembles`.
-* ``sample_stats``: ``lp`` (unnormalised log-posterior, natural units) and ``lp_unconstrained`` (the
-  sampler's target, with the log-Jacobian).
+  :func:`bayestissue.inference.diagnostics.rhat_ensembles`. Nested: one chain per run, equal-weight draws
+  resampled from the run's importance weights.
+* ``sample_stats``: ``lp`` (unnormalised log-posterior, natural units) and, for emcee, ``lp_unconstrained``
+  (the sampler's target, with the log-Jacobian).
+* ``importance_sample`` (nested only): every run's weighted points (``points``, ``weight`` summing to one over
+  all runs, ``run``); the attributes carry the log evidence (``log_evidence``, ``log_evidence_err``, per run
+  ``log_evidence_runs``, ``log_evidence_err_runs``, ``n_eff_runs``).
 * ``log_likelihood``: pointwise log-likelihood per experiment (for ``az.loo``; for AR(1) noise these
   are the conditional terms of the exact factorisation).
 * ``posterior_predictive``: a thinned subset of draws: ``<exp>`` with noise, ``<exp>_model``
@@ -25,7 +29,7 @@ import numpy as np
 
 from bayestissue.inference.diagnostics import import_arviz
 from bayestissue.inference.likelihood import _tag
-from bayestissue.inference.sampling import PosteriorSample
+from bayestissue.inference.sampling import NestedSample, PosteriorSample
 
 __all__ = ["to_inference_data"]
 
@@ -42,7 +46,7 @@ def _numeric_inputs(inputs: Mapping) -> tuple[dict, dict]:
 
 
 def to_inference_data(
-    sample: PosteriorSample,
+    sample: PosteriorSample | NestedSample,
     *,
     least_squares=None,
     max_draws: int = 4000,
@@ -51,16 +55,18 @@ def to_inference_data(
     rhat: Mapping[str, float] | None = None,
     rng=None,
 ):
-    """Build the ``InferenceData`` of a :class:`~bayestissue.inference.sampling.PosteriorSample`.
+    """Build the ``InferenceData`` of a :class:`~bayestissue.inference.sampling.PosteriorSample` (emcee) or
+    :class:`~bayestissue.inference.sampling.NestedSample`.
 
     Parameters
     ----------
-    sample : PosteriorSample
+    sample : PosteriorSample or NestedSample
     least_squares : LeastSquaresResult, optional (stored in ``constant_data``).
     max_draws : cap on the total number of posterior draws kept (further thinning, evenly).
     n_predictive : approximate number of draws in ``posterior_predictive``.
     attrs : global attributes (provenance).
-    rhat : between-ensemble R-hat per sampled parameter, stored as the variable's ``rhat_ensembles`` attribute.
+    rhat : between-ensemble (nested: between-run) R-hat per sampled parameter, stored as the variable's
+        ``rhat_ensembles`` attribute.
         Each tied parameter is listed in its target variable's ``tied`` attribute (a list of names), so that
         a reader expands the draws without parsing text (``parameters_tied`` keeps the ties readable).
     rng : seed or Generator for the predictive noise.
@@ -69,25 +75,18 @@ def to_inference_data(
     rng = np.random.default_rng(rng)
     problem = sample.problem
     pars = problem.parameters
-    z = sample.kept_z()  # (E, D, W, P)
-    lpz = sample.kept_log_prob()  # (E, D, W)
-    n_ens, n_d, nw, ndim = z.shape
-    keep = min(n_d, max(1, max_draws // (n_ens * nw)))
-    rows = np.unique(np.round(np.linspace(0, n_d - 1, keep)).astype(int))
-    thin = n_d / rows.size
-    z, lpz = z[:, rows], lpz[:, rows]
-    n_d = z.shape[1]
-    # chains = walkers, ensemble-major: (E, D, W, P) -> (E*W, D, P)
-    zc = z.transpose(0, 2, 1, 3).reshape(n_ens * nw, n_d, ndim)
-    lpzc = lpz.transpose(0, 2, 1).reshape(n_ens * nw, n_d)
-    flat_z = zc.reshape(-1, ndim)
-    theta = problem.coordinates.from_unconstrained(flat_z)
-    n_chain = n_ens * nw
-    posterior = {name: theta[:, j].reshape(n_chain, n_d) for j, name in enumerate(problem.names)}
-    lp_nat = lpzc - problem.coordinates.log_abs_det_jacobian(flat_z).reshape(n_chain, n_d)
-    sample_stats = {"lp": lp_nat, "lp_unconstrained": lpzc}
+    if isinstance(sample, NestedSample):
+        theta_c, sample_stats, engine_info = _nested_chains(sample, max_draws)
+    else:
+        theta_c, sample_stats, engine_info = _ensemble_chains(sample, max_draws)
+    n_chain, n_d, ndim = theta_c.shape
+    theta = theta_c.reshape(-1, ndim)
+    posterior = {name: theta_c[:, :, j] for j, name in enumerate(problem.names)}
     preds = problem.predict(theta)
     ll = problem.log_likelihood_pointwise(theta, predictions=preds)
+    if not sample_stats:  # nested draws: the log-posterior from the forward pass done here anyway
+        total = sum(part.sum(axis=1) for part in ll)
+        sample_stats = {"lp": (problem.log_prior(theta) + total).reshape(n_chain, n_d)}
     names = [_tag(e.name) for e in problem.experiments]
     log_lik = {n: l.reshape(n_chain, n_d, -1) for n, l in zip(names, ll, strict=False)}
     dims = {n: [f"time_{n}"] for n in names}
@@ -107,7 +106,7 @@ def to_inference_data(
     observed = {n: e.observed for n, e in zip(names, problem.experiments, strict=False)}
     arrays, text = _numeric_inputs(problem.material.fixed_inputs)
     constant = {
-        "ensemble_of_chain": np.repeat(np.arange(n_ens), nw).astype(float),
+        **engine_info.pop("constant", {}),
         "lower": pars.lower,
         "upper": pars.upper,
     }
@@ -144,16 +143,14 @@ def to_inference_data(
         )
         pp_ds = az.from_dict(posterior_predictive=pp, coords={**coords, "draw": didx}, dims=dims)
     idata.extend(pp_ds)
+    importance = engine_info.pop("importance", None)
+    if importance is not None:
+        idata.add_groups({"importance_sample": importance})
     info = {
-        "n_ensembles": n_ens,
-        "walkers_per_ensemble": nw,
-        "chains_are": "walkers (ensemble-major); R-hat over chains is not valid, see attrs rhat_*",
-        "thin_stored": float(thin),
+        **engine_info,
         "n_failed_forward": sample.n_failed,
         "n_forward_evaluations": sample.n_evaluations,
         "sampling_time_s": float(sample.time_s),
-        "ensemble_seeds": ",".join(str(s) for s in (sample.seeds or [])),
-        "sampler_coordinates": type(problem.coordinates).__name__,
         "parameters_tied": problem.material.tied_text,
         **text,
         **dict(attrs or {}),
@@ -165,3 +162,64 @@ def to_inference_data(
     for name, target in problem.material.tied.items():
         idata.posterior[target].attrs.setdefault("tied", []).append(name)
     return idata
+
+
+def _ensemble_chains(sample: PosteriorSample, max_draws: int):
+    """emcee: one chain per walker (ensemble-major), thinned evenly to about ``max_draws`` draws in all."""
+    problem = sample.problem
+    z = sample.kept_z()  # (E, D, W, P)
+    lpz = sample.kept_log_prob()  # (E, D, W)
+    n_ens, n_d, nw, ndim = z.shape
+    keep = min(n_d, max(1, max_draws // (n_ens * nw)))
+    rows = np.unique(np.round(np.linspace(0, n_d - 1, keep)).astype(int))
+    thin = n_d / rows.size
+    z, lpz = z[:, rows], lpz[:, rows]
+    n_d = z.shape[1]
+    zc = z.transpose(0, 2, 1, 3).reshape(n_ens * nw, n_d, ndim)
+    lpzc = lpz.transpose(0, 2, 1).reshape(n_ens * nw, n_d)
+    flat_z = zc.reshape(-1, ndim)
+    theta = problem.coordinates.from_unconstrained(flat_z).reshape(zc.shape)
+    lp_nat = lpzc - problem.coordinates.log_abs_det_jacobian(flat_z).reshape(n_ens * nw, n_d)
+    info = {
+        "engine": "emcee",
+        "n_ensembles": n_ens,
+        "walkers_per_ensemble": nw,
+        "chains_are": "walkers (ensemble-major); R-hat over chains is not valid, see attrs rhat_*",
+        "thin_stored": float(thin),
+        "ensemble_seeds": ",".join(str(s) for s in (sample.seeds or [])),
+        "sampler_coordinates": type(problem.coordinates).__name__,
+        "constant": {"ensemble_of_chain": np.repeat(np.arange(n_ens), nw).astype(float)},
+    }
+    return theta, {"lp": lp_nat, "lp_unconstrained": lpzc}, info
+
+
+def _nested_chains(sample: NestedSample, max_draws: int):
+    """Nested runs: one chain per run of equal-weight draws (at most ``max_draws`` in all); the weighted points
+    of every run go to the ``importance_sample`` group, the evidence to the attributes."""
+    import xarray as xr
+
+    draws = sample.draws()
+    n_runs = draws.shape[0]
+    draws = draws[:, : max(1, max_draws // n_runs)]
+    pts, w, run = sample.weighted()
+    importance = xr.Dataset(
+        {
+            "points": (("point", "parameter"), pts),
+            "weight": (("point",), w),
+            "run": (("point",), run.astype(float)),
+        },
+        coords={"parameter": list(sample.names)},
+    )
+    info = {
+        "engine": "nested (nautilus)",
+        "n_runs": n_runs,
+        "chains_are": "nested runs (equal-weight draws resampled from each run's importance weights)",
+        "log_evidence": sample.log_z,
+        "log_evidence_err": sample.log_z_err,
+        "log_evidence_runs": np.array([r.log_z for r in sample.runs]),
+        "log_evidence_err_runs": np.array([r.log_z_err for r in sample.runs]),
+        "n_eff_runs": np.array([r.n_eff for r in sample.runs]),
+        "run_seeds": ",".join(str(s) for s in (sample.seeds or [])),
+        "importance": importance,
+    }
+    return draws, {}, info

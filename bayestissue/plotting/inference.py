@@ -1,6 +1,6 @@
-"""Figures of a calibration: corner plot, traces, posterior predictive bands, residuals, least-squares
-history (paper Figs. 9 and 11) and the multi-start waterfall. Every function returns its figure;
-none saves or shows.
+"""Figures of a calibration: corner plot, traces (emcee) or the nested runs' marginals, posterior predictive
+bands, residuals, least-squares history (paper Figs. 9 and 11) and the multi-start waterfall. Every function
+returns its figure; none saves or shows.
 
 Parameters on a log-scaled box (moduli and rates) are shown as :math:`\\log_{10}` values: their
 posteriors span decades.
@@ -13,6 +13,7 @@ import numpy as np
 __all__ = [
     "plot_corner",
     "plot_traces",
+    "plot_nested_runs",
     "plot_predictive",
     "plot_residuals",
     "plot_ls_history",
@@ -109,6 +110,39 @@ def plot_traces(sample, *, max_walkers: int = 8):
     for ax in axes[-ncol:]:
         ax.set_xlabel("step")
     fig.suptitle("traces (colour = ensemble; shaded: discarded burn-in of ensemble 0)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def plot_nested_runs(sample, *, bins: int = 40):
+    """Each nested run's weighted marginal of every sampled parameter (colour = run; log10 for log-scaled
+    parameters): independent runs of a converged posterior lie on top of each other, a run that missed a mode
+    shows as a missing peak. The title gives each run's log evidence."""
+    import matplotlib.pyplot as plt
+
+    problem = sample.problem
+    ndim = problem.ndim
+    ncol = 4
+    nrow = int(np.ceil(ndim / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.2 * ncol, 2.3 * nrow))
+    axes = np.atleast_1d(axes).ravel()
+    colors = plt.cm.tab10(np.arange(len(sample.runs)))
+    shown = [_display(problem, problem.canonical(r.points), range(ndim)) for r in sample.runs]
+    labels = shown[0][1]
+    pooled = np.concatenate([v for v, _ in shown])
+    w = np.concatenate([r.weights for r in sample.runs])
+    for j in range(ndim):
+        o = np.argsort(pooled[:, j])
+        lo, hi = np.interp([0.001, 0.999], np.cumsum(w[o]) / w.sum(), pooled[o, j])
+        edges = np.linspace(lo, hi if hi > lo else lo + 1.0, bins + 1)
+        for k, ((vals, _), run) in enumerate(zip(shown, sample.runs, strict=True)):
+            axes[j].hist(vals[:, j], bins=edges, weights=run.weights, histtype="step", color=colors[k], lw=1.2)
+        axes[j].set_xlabel(labels[j], fontsize=9)
+        axes[j].set_yticks([])
+    for ax in axes[ndim:]:
+        ax.set_visible(False)
+    runs = ", ".join(f"{r.log_z:.2f} +- {r.log_z_err:.2f}" for r in sample.runs)
+    fig.suptitle(f"nested runs (colour = run), weighted marginals; log Z per run: {runs}", fontsize=10)
     fig.tight_layout()
     return fig
 
@@ -225,8 +259,8 @@ def plot_waterfall(costs, *, labels=None, ax=None, title=None):
 def calibration_figures(outcome) -> dict:
     """All figures of a :class:`~bayestissue.workflows.CalibrationOutcome`, by name.
 
-    Names: ``ls_history``, ``waterfall``, and with a posterior ``corner``, ``traces``,
-    ``predictive_<exp>``, ``residuals_<exp>``. Returns figures; the caller saves and closes them.
+    Names: ``ls_history``, ``waterfall``, and with a posterior ``corner``, ``traces`` (emcee) or ``nested_runs``
+    (nested), ``predictive_<exp>``, ``residuals_<exp>``. Returns figures; the caller saves and closes them.
     """
     problem = outcome.problem
     figs = {
@@ -252,7 +286,10 @@ def calibration_figures(outcome) -> dict:
         refs = next(iter(outcome.references.values()))
         refs = {k: v for k, v in refs.items() if k in ("paper", "generating")}
     figs["corner"] = plot_corner(problem, outcome.sample.flat(), least_squares=outcome.best, references=refs)
-    figs["traces"] = plot_traces(outcome.sample)
+    if hasattr(outcome.sample, "runs"):
+        figs["nested_runs"] = plot_nested_runs(outcome.sample)
+    else:
+        figs["traces"] = plot_traces(outcome.sample)
     pp = outcome.idata.posterior_predictive
     for k, e in enumerate(problem.experiments):
         tag = [v for v in pp.data_vars if not v.endswith("_model")][k]

@@ -7,8 +7,9 @@ Steps of :func:`run_calibration` (used by ``bayestissue fit`` and ``studies/cali
    (shared material parameters, one noise model each);
 2. the paper's least squares from its initial guess (trust-region reflective, ``x_scale`` = initial guess);
 3. multi-start least squares (Latin hypercube in the scaled box) and clustering of the optima;
-4. the sampler's coordinates adapted to the best optimum, emcee ensembles started at distinct plausible
-   optima (Laplace scatter), automatic length, diagnostics;
+4. emcee (``[sampler] engine``, the default): the sampler's coordinates adapted to the best optimum, ensembles
+   started at distinct plausible optima (Laplace scatter), automatic length, diagnostics; or nested: independent
+   nautilus runs from the prior, the evidence, diagnostics (:mod:`bayestissue.inference.evidence`);
 5. ``InferenceData`` with provenance and the summary table (written when ``out_dir`` is given).
 """
 
@@ -28,10 +29,14 @@ from bayestissue.inference import (
     ConvergenceReport,
     LeastSquaresResult,
     MultistartResult,
+    NestedReport,
+    NestedSample,
     PosteriorSample,
     assess_convergence,
+    assess_nested,
     fit_least_squares,
     fit_multistart,
+    sample_nested,
     sample_posterior,
 )
 from bayestissue.inference.coordinates import adapt_coordinates
@@ -54,8 +59,8 @@ class CalibrationOutcome:
     paper_fit: LeastSquaresResult
     multistart: MultistartResult
     best: LeastSquaresResult
-    sample: PosteriorSample | None = None
-    report: ConvergenceReport | None = None
+    sample: PosteriorSample | NestedSample | None = None
+    report: ConvergenceReport | NestedReport | None = None
     idata: object = None
     table: dict | None = None
     references: dict = field(default_factory=dict)
@@ -82,7 +87,8 @@ def run_calibration(
     checkpoints
         (``checkpoints/ensemble_<k>.h5``); nothing is written without it.
     resume : continue the sampler runs checkpointed in ``out_dir``.
-    progress : ``progress(ensemble_id, steps_done, max_steps)`` during sampling.
+    progress : during sampling, ``progress(ensemble_id, steps_done, max_steps)`` (emcee) or
+        ``progress(run, n_evaluations, n_eff, explored, log_z)`` (nested).
     provenance : global attributes for the results file (version, seed, hashes: see
         :func:`bayestissue.io.results.provenance`).
     """
@@ -116,29 +122,39 @@ def run_calibration(
         outcome.table = summary_table(problem, best, None, None, references=refs)
         _write(outcome, out_dir)
         return outcome
-    t0 = time.perf_counter()
-    problem.coordinates = adapt_coordinates(problem, problem.nuisance_estimate(best.x))
-    times["coordinates"] = time.perf_counter() - t0
-    centers, covs = _ensemble_centres(problem, [paper_fit, *multi.results], best, config)
     ckpt = None if out_dir is None else Path(out_dir) / "checkpoints"
-    t0 = time.perf_counter()
-    sample = sample_posterior(
-        problem,
-        centers,
-        cov=covs,
-        options=config.sampler,
-        checkpoint=ckpt,
-        resume=resume,
-        progress=progress,
-        rng=rng,
-    )
-    times["sampling"] = time.perf_counter() - t0
-    report = assess_convergence(sample, tau_factor=config.sampler.tau_factor)
+    if config.engine == "nested":
+        t0 = time.perf_counter()
+        sample = sample_nested(
+            problem, options=config.nested, checkpoint=ckpt, resume=resume, progress=progress, rng=rng
+        )
+        times["sampling"] = time.perf_counter() - t0
+        report = assess_nested(sample)
+        engine_attrs = {}
+    else:
+        t0 = time.perf_counter()
+        problem.coordinates = adapt_coordinates(problem, problem.nuisance_estimate(best.x))
+        times["coordinates"] = time.perf_counter() - t0
+        centers, covs = _ensemble_centres(problem, [paper_fit, *multi.results], best, config)
+        t0 = time.perf_counter()
+        sample = sample_posterior(
+            problem,
+            centers,
+            cov=covs,
+            options=config.sampler,
+            checkpoint=ckpt,
+            resume=resume,
+            progress=progress,
+            rng=rng,
+        )
+        times["sampling"] = time.perf_counter() - t0
+        report = assess_convergence(sample, tau_factor=config.sampler.tau_factor)
+        engine_attrs = {"acceptance_mean": float(np.mean(report.acceptance))}
     attrs = dict(provenance or {})
     attrs.update(
         convergence=report.verdict(),
         converged=int(report.converged),
-        acceptance_mean=float(np.mean(report.acceptance)),
+        **engine_attrs,
         noise_model=config.noise,
         prior=config.prior,
         seed=int(config.seed),

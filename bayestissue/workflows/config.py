@@ -32,6 +32,10 @@ Configuration file (all sections and keys optional)::
     coordinates = "box"               # or "creep" (creep tests, tied families 2/3) or "ramp" (force ramps)
     max_steps = 20000
 
+    [nested]                          # with [sampler] engine = "nested"
+    n_live = 1000
+    n_runs = 4
+
     [output]
     max_draws = 4000
     n_predictive = 400
@@ -49,9 +53,9 @@ from pathlib import Path
 from bayestissue._validation import ValidationError
 from bayestissue.inference.coordinates import COORDINATES
 from bayestissue.inference.likelihood import NOISE_MODELS, make_noise
-from bayestissue.inference.sampling import SamplerOptions
+from bayestissue.inference.sampling import NestedOptions, SamplerOptions
 from bayestissue.io.results import read_config
-from bayestissue.workflows.schema import check_mapping
+from bayestissue.workflows.schema import ENGINES, check_mapping
 
 __all__ = ["CalibrationConfig", "config_from_mapping", "load_config"]
 
@@ -72,8 +76,11 @@ class CalibrationConfig:
     n_starts : random starts of the multi-start least squares (the paper's start is always added).
     ls_max_nfev : evaluation cap of each least-squares run.
     ls_jacobian : ``"differences"`` or ``"exact"`` (:func:`bayestissue.inference.fit_least_squares`).
-    sample : run the MCMC stage.
+    sample : run the sampling stage.
+    engine : ``"emcee"`` (ensembles started at the least-squares optima, :attr:`sampler`) or ``"nested"``
+        (nautilus runs from the prior with the evidence, :attr:`nested`).
     sampler : :class:`~bayestissue.inference.sampling.SamplerOptions`.
+    nested : :class:`~bayestissue.inference.sampling.NestedOptions`.
     seed : master seed (least-squares starts, walkers, sampler streams, predictive noise).
     max_draws, n_predictive : size of the stored posterior and of the posterior predictive.
     exchangeable : two groups of parameters whose exchange leaves the likelihood unchanged (fibre
@@ -103,7 +110,9 @@ class CalibrationConfig:
     ls_max_nfev: int = 1000
     ls_jacobian: str = "differences"
     sample: bool = True
+    engine: str = "emcee"
     sampler: SamplerOptions = field(default_factory=SamplerOptions)
+    nested: NestedOptions = field(default_factory=NestedOptions)
     seed: int = 20261121
     max_draws: int = 4000
     n_predictive: int = 400
@@ -123,6 +132,8 @@ class CalibrationConfig:
             raise ValidationError("sampler.coordinates", self.coordinates, f"one of {list(COORDINATES)}")
         if not (isinstance(self.n_starts, int) and self.n_starts >= 0):
             raise ValidationError("warmstart.n_starts", self.n_starts, "an integer >= 0")
+        if self.engine not in ENGINES:
+            raise ValidationError("sampler.engine", self.engine, f"one of {list(ENGINES)}")
         if self.ls_jacobian not in ("differences", "exact"):
             raise ValidationError("warmstart.jacobian", self.ls_jacobian, "'differences' or 'exact'")
 
@@ -155,12 +166,13 @@ def config_from_mapping(cfg: Mapping | None = None, *, where: str = "configurati
         kw["ls_max_nfev"] = ws["max_nfev"]
     if "jacobian" in ws:
         kw["ls_jacobian"] = ws["jacobian"]
-    for k in ("seed", "sample", "coordinates"):
+    for k in ("seed", "sample", "coordinates", "engine"):
         if k in smp:
             kw[k] = smp.pop(k)
     kw.update({k: out[k] for k in ("max_draws", "n_predictive") if k in out})
     sampler_over = overrides.pop("sampler", {})
     kw["sampler"] = SamplerOptions(**{**smp, **dict(sampler_over)})
+    kw["nested"] = NestedOptions(**{**cfg.get("nested", {}), **dict(overrides.pop("nested", {}))})
     kw.update(overrides)
     return CalibrationConfig(**kw)
 

@@ -17,7 +17,10 @@ from bayestissue.inference.coordinates import COORDINATES
 from bayestissue.inference.likelihood import NOISE_MODELS
 from bayestissue.inference.sampling.options import MOVES, PROPOSALS
 
-__all__ = ["SCHEMA", "Key", "check_mapping", "reference_markdown"]
+#: The sampling engines (``[sampler] engine``).
+ENGINES = ("emcee", "nested")
+
+__all__ = ["ENGINES", "SCHEMA", "Key", "check_mapping", "reference_markdown"]
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     "sampler": {
         "seed": Key("int", "20261121", "master seed (starts, walkers, sampler streams, predictive noise)", low=0),
-        "sample": Key("bool", "true", "run the MCMC stage (false: least squares only)"),
+        "sample": Key("bool", "true", "run the sampling stage (false: least squares only)"),
+        "engine": Key("choice", '"emcee"', "emcee ensembles from the least-squares optima, or nested sampling from "
+                      "the prior (nautilus; multimodal and curved posteriors, and the evidence; options in [nested])",
+                      choices=ENGINES),
         "coordinates": Key("choice", '"box"', "the sampler's coordinates: box, creep (creep tests, families 2/3 "
                            "tied) or ramp (force ramps)", choices=tuple(COORDINATES)),
         "moves": Key("choice", '"de_snooker"', "emcee moves; mixture = fitted Student-t independence proposals + DE",
@@ -89,6 +95,19 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "adapt_rounds": Key("int", "3", "adaptation rounds of the mixture proposal (discarded)", low=1),
         "adapt_steps": Key("int", "1000", "steps per adaptation round", low=1),
         "mixture_components": Key("int", "16", "largest number of mixture components", low=1),
+    },
+    "nested": {
+        "n_live": Key("int", "1000", "live points of each nested run", low=10),
+        "n_eff": Key("int", "1000", "importance effective sample size of each run", low=1),
+        "n_runs": Key("int", "4", "independent nested runs (the verdict needs at least 4)", low=1),
+        "n_processes": Key("int", "min(n_runs, cores)", "parallel processes", low=1),
+        "n_networks": Key("int", "4", "neural networks per bound", low=1),
+        "f_live": Key("float", "0.01", "the exploration ends when the live set holds less than this share of the "
+                      "evidence", low=0.0, low_open=True),
+        "max_evaluations": Key("int", "none", "likelihood evaluations per run at most", low=1),
+        "report_every": Key("int", "5000", "evaluations between progress reports and checkpoints", low=1),
+        "discard_exploration": Key("bool", "true", "leave the exploration phase's points out of the posterior and "
+                                   "the evidence (unbiased)"),
     },
     "output": {
         "max_draws": Key("int", "4000", "posterior draws stored in posterior.nc", low=1),

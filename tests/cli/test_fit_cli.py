@@ -42,6 +42,38 @@ def test_fit_two_parameters_writes_results(tmp_path, capsys):
     assert np.all(np.isfinite(idata.posterior["mu"].values))
 
 
+def test_fit_nested_engine_writes_evidence_weights_and_figures(tmp_path, capsys):
+    """``engine = "nested"`` through the CLI on the T2 replica with mu and kappa sampled: the verdict and the
+    evidence are printed, posterior.nc holds the equal-weight draws, the importance sample and the evidence, and
+    the run figure replaces the traces."""
+    cfg = _config(
+        tmp_path,
+        '[parameters]\nsampled = ["mu", "kappa"]\n[warmstart]\nn_starts = 1\n[sampler]\nseed = 5\nengine = "nested"\n'
+        "[nested]\nn_live = 200\nn_eff = 300\nn_runs = 2\nn_networks = 1\n",
+    )
+    out = tmp_path / "out"
+    code = main(["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(out), "--no-progress"])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "then 2 nested runs" in text
+    assert "NOT CONVERGED: 2 run(s), at least 4 needed" in text
+    idata = read_inference_data(out / "posterior.nc")
+    attrs = idata.posterior.attrs
+    assert attrs["engine"] == "nested (nautilus)"
+    assert f"log evidence: {attrs['log_evidence']:.3f} +- {attrs['log_evidence_err']:.3f}" in text
+    assert len(attrs["log_evidence_runs"]) == 2
+    assert idata.posterior.sizes["chain"] == 2
+    assert idata.importance_sample["weight"].sum() == pytest.approx(1.0)
+    assert np.all(np.isfinite(idata.posterior["mu"].values))
+    for k in range(2):
+        assert (out / "checkpoints" / f"nested_{k}.h5").is_file()
+    for name in ("corner", "nested_runs", "predictive_T2"):
+        assert (out / f"{name}.png").stat().st_size > 10_000
+    assert not (out / "traces.png").exists()
+    cols, _ = read_table(out / "summary.csv", required=("parameter", "median", "rhat", "ess_bulk"))
+    assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
+
+
 @pytest.mark.slow
 def test_fit_quick_all_parameters_with_figures_and_resume(tmp_path):
     out = tmp_path / "out"

@@ -49,3 +49,30 @@ def two_mode_problem():
     y = np.concatenate([np.full(10, 4.0), np.full(10, 0.5)])
     term = ExperimentTerm("square", np.arange(20.0), y, _Square(), GaussianNoise(sd=0.1))
     return CalibrationProblem([term], ParameterSet(specs))
+
+
+class _LopsidedSquare:
+    """Forward model ``(f(x0), ..., x1, ...)`` with ``f(x0) = x0^2`` for ``x0 >= 0`` and ``(c x0)^2`` below
+    (picklable)."""
+
+    def __init__(self, c: float):
+        self.c = c
+
+    def __call__(self, params):
+        p = np.atleast_2d(np.asarray(params, dtype=float))
+        x0 = np.where(p[:, 0] >= 0.0, p[:, 0], self.c * p[:, 0])
+        return np.column_stack([np.repeat(x0[:, None] ** 2, 10, axis=1), np.repeat(p[:, 1:2], 10, axis=1)])
+
+
+def lopsided_two_mode_problem(weight_right: float = 0.7):
+    """Two separated modes with masses ``1 - weight_right`` (``x0 = -2/c``) and ``weight_right`` (``x0 = +2``):
+    data ``f(x0) = 4`` and ``x1 = 0.5`` observed 10 times each with known sd 0.1, uniform priors on ``[-5, 5]``.
+
+    With the substitution :math:`u = f(x_0)`, :math:`|df/dx_0| = 2\\sqrt{u}` on the right and :math:`2c\\sqrt{u}` on
+    the left, so the left mode's mass is exactly :math:`1/c` times the right one's; :math:`c = w/(1-w)` gives
+    the weights (box truncation below 1e-300)."""
+    c = weight_right / (1.0 - weight_right)
+    specs = tuple(ParameterSpec(n, "1", -5.0, 5.0, prior="uniform", value=0.0) for n in ("x0", "x1"))
+    y = np.concatenate([np.full(10, 4.0), np.full(10, 0.5)])
+    term = ExperimentTerm("lopsided", np.arange(20.0), y, _LopsidedSquare(c), GaussianNoise(sd=0.1))
+    return CalibrationProblem([term], ParameterSet(specs))

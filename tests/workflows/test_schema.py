@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.inference.sampling.options import SamplerOptions
+from bayestissue.inference.sampling import NestedOptions, SamplerOptions
 from bayestissue.workflows import config_from_mapping
 from bayestissue.workflows.schema import SCHEMA, check_mapping, reference_markdown
 
@@ -19,8 +19,9 @@ def test_docs_config_md_is_the_rendered_schema():
 
 
 def test_every_sampler_option_is_in_the_schema_and_nothing_else():
-    extra = {"seed", "sample", "coordinates"}  # calibration settings kept in the [sampler] section
+    extra = {"seed", "sample", "coordinates", "engine"}  # calibration settings kept in the [sampler] section
     assert set(SCHEMA["sampler"]) - extra == set(SamplerOptions.__dataclass_fields__)
+    assert set(SCHEMA["nested"]) == set(NestedOptions.__dataclass_fields__)
 
 
 def test_documented_defaults_are_the_code_defaults():
@@ -34,9 +35,12 @@ def test_documented_defaults_are_the_code_defaults():
         return f'"{v}"' if isinstance(v, str) else str(v)
 
     sampler = {n: f.default for n, f in SamplerOptions.__dataclass_fields__.items() if f.default is not None}
+    nested = {n: f.default for n, f in NestedOptions.__dataclass_fields__.items() if f.default is not None}
     config = CalibrationConfig()
     plain = {
         **{("sampler", n): v for n, v in sampler.items()},
+        **{("nested", n): v for n, v in nested.items()},
+        ("sampler", "engine"): config.engine,
         ("sampler", "seed"): config.seed,
         ("sampler", "sample"): config.sample,
         ("sampler", "coordinates"): config.coordinates,
@@ -66,7 +70,8 @@ GOOD = {
     },
     "likelihood": {"noise": "ar1", "sd": "data", "rho_bounds": [-0.5, 0.5]},
     "warmstart": {"n_starts": 0, "max_nfev": 10, "jacobian": "exact"},
-    "sampler": {"seed": 0, "sample": False, "n_walkers": 40, "tau_factor": 30, "moves": "mixture"},
+    "sampler": {"seed": 0, "sample": False, "n_walkers": 40, "tau_factor": 30, "moves": "mixture", "engine": "nested"},
+    "nested": {"n_live": 300, "n_runs": 6, "f_live": 0.05, "discard_exploration": False, "max_evaluations": 10**6},
     "output": {"max_draws": 100, "n_predictive": 0},
 }
 
@@ -76,6 +81,7 @@ def test_a_config_with_every_kind_passes():
     cfg = config_from_mapping({k: v for k, v in GOOD.items() if k != "parameters"})
     assert cfg.sampler.tau_factor == 30 and cfg.sample is False and cfg.noise_options["sd"] == "data"
     assert cfg.ls_jacobian == "exact"
+    assert cfg.engine == "nested" and cfg.nested.n_live == 300 and cfg.nested.discard_exploration is False
 
 
 @pytest.mark.parametrize(
@@ -92,6 +98,9 @@ def test_a_config_with_every_kind_passes():
         ("warmstart", "jacobian", "complex", "one of"),
         ("sampler", "n_walkers", 3, "an integer >= 4"),
         ("sampler", "moves", "hmc", "one of"),
+        ("sampler", "engine", "mcmc", r"one of \['emcee', 'nested'\]"),
+        ("nested", "n_live", 5, "an integer >= 10"),
+        ("nested", "discard_exploration", "yes", "true or false"),
         ("output", "max_draws", 0, "an integer >= 1"),
     ],
 )

@@ -37,9 +37,13 @@ one batched forward call.
   :math:`2\\max\\hat\\tau`, thinning :math:`\\max(1, \\lfloor \\min\\hat\\tau / 2 \\rfloor)`.
 * Walkers of one ensemble are not independent chains, so :func:`sample_posterior` runs
   ``n_ensembles`` (>= 4 for R-hat) independent ensembles, in parallel processes where cores allow.
+
+The second engine, :func:`sample_nested` (:mod:`~bayestissue.inference.sampling.nested`), runs independent
+nautilus importance nested sampling runs from the prior: no start, any number of modes, and the evidence.
 """
 
 from bayestissue.inference.sampling.ensemble import EnsembleResult, run_ensemble
+from bayestissue.inference.sampling.nested import NestedOptions, NestedRun, NestedSample, sample_nested
 from bayestissue.inference.sampling.options import ADAPTIVE_MOVES, MOVES, PROPOSALS, SamplerOptions
 from bayestissue.inference.sampling.phases import prepare_ensemble
 from bayestissue.inference.sampling.runner import PosteriorSample, sample_posterior
@@ -50,10 +54,14 @@ __all__ = [
     "MOVES",
     "PROPOSALS",
     "EnsembleResult",
+    "NestedOptions",
+    "NestedRun",
+    "NestedSample",
     "PosteriorSample",
     "SamplerOptions",
     "initial_walkers",
     "prepare_ensemble",
     "run_ensemble",
+    "sample_nested",
     "sample_posterior",
 ]

@@ -1,13 +1,11 @@
-"""Independent ensembles run in parallel processes (one executor), pooled into a :class:`PosteriorSample`."""
+"""Independent ensembles run in parallel processes (:mod:`~bayestissue.inference.sampling.processes`), pooled into a
+:class:`PosteriorSample`."""
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
-import queue as _queue
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +17,7 @@ from bayestissue.inference.proposals import fit_t_mixture
 from bayestissue.inference.sampling.ensemble import EnsembleResult, _stored_run, run_ensemble
 from bayestissue.inference.sampling.options import ADAPTIVE_MOVES, SamplerOptions
 from bayestissue.inference.sampling.phases import prepare_ensemble
+from bayestissue.inference.sampling.processes import run_in_processes
 from bayestissue.inference.sampling.start import initial_walkers
 
 __all__ = ["PosteriorSample", "sample_posterior"]
@@ -65,16 +64,6 @@ class PosteriorSample:
         return d.reshape(-1, d.shape[-1])
 
 
-# ---- parallel ensembles
-# ------------------------------------------------------------------------------
-_WORKER: dict = {}
-
-
-def _init_worker(problem, progress_queue):
-    _WORKER["problem"] = problem
-    _WORKER["queue"] = progress_queue
-
-
 def _task(problem, task, k, p0, seed, options, path, resume, proposal, progress):
     """One ensemble's ``task``: ``"prepare"`` (:func:`prepare_ensemble`; returns its start and draws)
     or ``"run"`` (:func:`run_ensemble`), with the problem's evaluations and failures during it."""
@@ -95,37 +84,6 @@ def _task(problem, task, k, p0, seed, options, path, resume, proposal, progress)
             proposal=proposal,
         )
     return out, problem.n_evaluations - n_eval0, problem.n_failed - n_fail0
-
-
-def _worker(task, *args):
-    q = _WORKER["queue"]
-
-    def report(eid, n, nmax):
-        q.put((eid, n, nmax))
-
-    return _task(_WORKER["problem"], task, *args, report)
-
-
-def _run_tasks(problem, task, args, n_proc, progress):
-    """``_task`` for every ensemble's arguments in ``args``: in forked processes when ``n_proc > 1``,
-    else one after another in this process. Returns ``(output, n_evaluations, n_failed)`` each."""
-    if n_proc > 1 and "fork" in mp.get_all_start_methods():
-        ctx = mp.get_context("fork")
-        q = ctx.Queue()
-        with ProcessPoolExecutor(n_proc, mp_context=ctx, initializer=_init_worker, initargs=(problem, q)) as ex:
-            futs = [ex.submit(_worker, task, *a) for a in args]
-            while not all(f.done() for f in futs):
-                try:
-                    msg = q.get(timeout=0.2)
-                except _queue.Empty:
-                    continue
-                if progress is not None:
-                    progress(*msg)
-            results = [f.result() for f in futs]
-            while progress is not None and not q.empty():
-                progress(*q.get())
-        return results
-    return [_task(problem, task, *a, progress) for a in args]
 
 
 def sample_posterior(
@@ -193,14 +151,14 @@ def sample_posterior(
     extra = [(0, 0)] * n_ens
     shared = options.proposal == "shared" and options.moves in ADAPTIVE_MOVES
     if shared and not (resume and all(_stored_run(paths[k], k, True)[0] > 0 for k in range(n_ens))):
-        prepared = _run_tasks(problem, "prepare", args, n_proc, None)
+        prepared = run_in_processes(problem, _task, [("prepare", *a) for a in args], n_proc, None)
         draws = np.concatenate([out[1] for out, _, _ in prepared])
         mixture = fit_t_mixture(draws, n_components=options.mixture_components, seed=seeds[0] % (2**31 - 1))
         args = [(k, prepared[k][0][0], seeds[k], options, paths[k], resume, mixture) for k in range(n_ens)]
         extra = [(n_eval, n_fail) for _, n_eval, n_fail in prepared]
     results = []
     for (r, n_eval, n_fail), (n_eval0, n_fail0) in zip(
-        _run_tasks(problem, "run", args, n_proc, progress), extra, strict=True
+        run_in_processes(problem, _task, [("run", *a) for a in args], n_proc, progress), extra, strict=True
     ):
         r.n_evaluations, r.n_failed = n_eval + n_eval0, n_fail + n_fail0
         results.append(r)

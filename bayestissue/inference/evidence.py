@@ -1,0 +1,178 @@
+"""Diagnostics and verdict of the nested engine (:mod:`bayestissue.inference.sampling.nested`).
+
+For importance-weighted points :math:`x_i` with normalised weights :math:`w_i` (one run), the variance of a
+weighted mean :math:`\\hat\\mu = \\sum_i w_i f(x_i)` is estimated by :math:`\\sum_i w_i^2 (f(x_i) - \\hat\\mu)^2`
+(delta method for the self-normalised estimator; Owen 2013, *Monte Carlo theory, methods and examples*, ch. 9),
+so its effective sample size is
+
+.. math:: n_\\text{eff}[f] = \\frac{\\sum_i w_i (f_i - \\hat\\mu)^2}{\\sum_i w_i^2 (f_i - \\hat\\mu)^2},
+
+:math:`n` for equal weights. Following the rank-normalised diagnostics of Vehtari et al. 2021
+(doi:10.1214/20-BA1221):
+
+* **bulk ESS** of a parameter: :math:`n_\\text{eff}` of its normal scores :math:`\\Phi^{-1}(\\hat F_w(x_i))`
+  (:math:`\\hat F_w` the weighted empirical CDF at mid-weight);
+* **tail ESS**: the smaller :math:`n_\\text{eff}` of the indicators :math:`x \\le q_{0.05}` and :math:`x \\le
+  q_{0.95}` (weighted quantiles), i.e. :math:`p(1-p)/\\sum_i w_i^2 (I_i - p)^2`;
+* both summed over the independent runs;
+* **R-hat**: rank-normalised split :math:`\\hat R` with one chain per run, on each run's equal-weight draws
+  (:meth:`NestedSample.draws`).
+
+The evidence: the runs' :math:`\\log\\hat Z_k` must agree with their own errors :math:`\\sigma_k`
+(:attr:`NestedRun.log_z_err`): :math:`\\chi^2 = \\sum_k (\\log\\hat Z_k - \\overline{\\log Z})^2/\\sigma_k^2` with
+:math:`n - 1` degrees of freedom, p-value at least 0.01, and their range below 0.2.
+
+Verdict (:func:`assess_nested`): at least 4 runs, each finished (not stopped by an evaluation cap), R-hat < 1.01,
+bulk and tail ESS >= 400 for every sampled parameter, the evidence consistent as above.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import ndtri
+from scipy.stats import chi2
+
+from bayestissue.inference.diagnostics import rhat_ensembles
+
+__all__ = ["NestedReport", "assess_nested", "weighted_ess", "weighted_quantile"]
+
+
+def weighted_quantile(x, w, q) -> np.ndarray:
+    """Quantiles ``q`` of the weighted sample (``x`` ``(n,)``, ``w`` ``(n,)`` summing to one): the inverse of
+    the mid-weight empirical CDF, interpolated."""
+    o = np.argsort(x)
+    c = np.cumsum(w[o]) - 0.5 * w[o]
+    return np.interp(q, c, x[o])
+
+
+def _n_eff(f, w) -> float:
+    mu = np.sum(w * f)
+    d2 = (f - mu) ** 2
+    var_is = np.sum(w**2 * d2)
+    return float(np.sum(w * d2) / var_is) if var_is > 0 else float(w.size)
+
+
+def weighted_ess(x, w) -> tuple[np.ndarray, np.ndarray]:
+    """Bulk and tail ESS ``(ndim,)`` each of one run's weighted points ``x`` ``(n, ndim)`` (see the module)."""
+    x = np.asarray(x, dtype=float)
+    w = np.asarray(w, dtype=float) / np.sum(w)
+    bulk, tail = np.empty(x.shape[1]), np.empty(x.shape[1])
+    for j in range(x.shape[1]):
+        o = np.argsort(x[:, j], kind="stable")
+        cdf = np.empty_like(w)
+        cdf[o] = np.cumsum(w[o]) - 0.5 * w[o]
+        bulk[j] = _n_eff(ndtri(np.clip(cdf, 1e-12, 1 - 1e-12)), w)
+        tail[j] = min(_n_eff((x[:, j] <= weighted_quantile(x[:, j], w, q)).astype(float), w) for q in (0.05, 0.95))
+    return bulk, tail
+
+
+@dataclass(frozen=True)
+class NestedReport:
+    """Diagnostics of a :class:`~bayestissue.inference.sampling.NestedSample`."""
+
+    names: tuple[str, ...]
+    rhat: np.ndarray
+    ess_bulk: np.ndarray
+    ess_tail: np.ndarray
+    log_z: np.ndarray  # (n_runs,)
+    log_z_err: np.ndarray  # (n_runs,)
+    n_like: np.ndarray  # (n_runs,)
+    finished: np.ndarray  # (n_runs,) bool
+    n_draws: int
+    time_s: float
+    rhat_max: float = 1.01
+    ess_min: float = 400.0
+    spread_max: float = 0.2
+    p_min: float = 0.01
+    min_runs: int = 4
+
+    @property
+    def log_z_spread(self) -> float:
+        return float(np.ptp(self.log_z))
+
+    @property
+    def log_z_p(self) -> float:
+        """p-value of the runs' evidence scatter against their own errors (chi-square, n - 1 dof)."""
+        if self.log_z.size < 2:
+            return float("nan")
+        w = 1.0 / self.log_z_err**2
+        mean = np.sum(w * self.log_z) / np.sum(w)
+        return float(chi2.sf(np.sum(w * (self.log_z - mean) ** 2), self.log_z.size - 1))
+
+    @property
+    def evidence_ok(self) -> bool:
+        return bool(self.log_z_spread < self.spread_max and self.log_z_p >= self.p_min)
+
+    @property
+    def converged(self) -> bool:
+        return bool(
+            self.log_z.size >= self.min_runs
+            and np.all(self.finished)
+            and np.all(self.rhat < self.rhat_max)
+            and np.all(self.ess_bulk >= self.ess_min)
+            and np.all(self.ess_tail >= self.ess_min)
+            and self.evidence_ok
+        )
+
+    def verdict(self) -> str:
+        """Plain-language verdict, one clause per failed criterion."""
+        evidence = (
+            f"log Z per run {', '.join(f'{z:.2f}' for z in self.log_z)} (range {self.log_z_spread:.3f}, "
+            f"own errors {np.sqrt(np.mean(self.log_z_err**2)):.3f}, scatter p = {self.log_z_p:.2g})"
+        )
+        if self.converged:
+            return (
+                f"CONVERGED: {self.log_z.size} nested runs, R-hat < {self.rhat_max} (max {np.max(self.rhat):.4f}), "
+                f"bulk ESS >= {self.ess_min:g} (min {np.min(self.ess_bulk):.0f}), tail ESS >= {self.ess_min:g} "
+                f"(min {np.min(self.ess_tail):.0f}), {evidence}"
+            )
+        lines = []
+        if self.log_z.size < self.min_runs:
+            lines.append(f"{self.log_z.size} run(s), at least {self.min_runs} needed")
+        if not np.all(self.finished):
+            lines.append(f"runs {np.flatnonzero(~self.finished).tolist()} stopped at the evaluation cap")
+        bad = [n for n, r in zip(self.names, self.rhat, strict=True) if not r < self.rhat_max]
+        if bad and self.log_z.size >= 2:  # one run has no R-hat (said above)
+            lines.append(f"R-hat >= {self.rhat_max} for {bad} (max {np.nanmax(self.rhat):.3f})")
+        for label, ess in (("bulk", self.ess_bulk), ("tail", self.ess_tail)):
+            bad = [n for n, e in zip(self.names, ess, strict=True) if not e >= self.ess_min]
+            if bad:
+                lines.append(f"{label} ESS < {self.ess_min:g} for {bad} (min {np.min(ess):.0f})")
+        if not self.evidence_ok:
+            lines.append(
+                f"evidence not consistent across runs (range < {self.spread_max:g} and p >= {self.p_min:g} "
+                f"needed): {evidence}"
+            )
+        return "NOT CONVERGED: " + "; ".join(lines)
+
+    def ess_per_second(self) -> float:
+        """Smallest bulk ESS divided by the wall time of the sampling."""
+        return float(np.min(self.ess_bulk) / self.time_s) if self.time_s > 0 else np.nan
+
+
+def assess_nested(sample, *, rhat_max: float = 1.01, ess_min: float = 400.0) -> NestedReport:
+    """Diagnostics and verdict of a :class:`~bayestissue.inference.sampling.NestedSample`."""
+    draws = sample.draws()
+    ndim = draws.shape[-1]
+    rhat = rhat_ensembles(draws[:, :, None, :]) if draws.shape[0] >= 2 else np.full(ndim, np.nan)
+    bulk, tail = np.zeros(ndim), np.zeros(ndim)
+    for r in sample.runs:
+        b, t = weighted_ess(sample.problem.canonical(r.points), r.weights)
+        bulk += b
+        tail += t
+    return NestedReport(
+        names=tuple(sample.names),
+        rhat=rhat,
+        ess_bulk=bulk,
+        ess_tail=tail,
+        log_z=np.array([r.log_z for r in sample.runs]),
+        log_z_err=np.array([r.log_z_err for r in sample.runs]),
+        n_like=np.array([r.n_like for r in sample.runs]),
+        finished=np.array([r.finished for r in sample.runs]),
+        n_draws=int(draws.shape[0] * draws.shape[1]),
+        time_s=float(sample.time_s),
+        rhat_max=rhat_max,
+        ess_min=ess_min,
+    )

@@ -1,0 +1,277 @@
+"""The nested engine: independent nautilus runs of one posterior, with the evidence.
+
+nautilus (Lange 2023, MNRAS 525, 3181, "nautilus: boosting Bayesian importance nested sampling with deep
+learning") estimates the evidence
+
+.. math:: Z = \\int L(\\theta)\\, \\pi(\\theta)\\, d\\theta
+
+and the posterior :math:`L\\pi/Z` by importance sampling from nested shells of the prior whose boundaries
+neural-network emulators of the likelihood's rank learn: a run returns points :math:`\\theta_i` with importance
+weights :math:`w_i \\propto V_i L(\\theta_i)` (:math:`V_i` the volume of its shell over the points drawn in it) and
+:math:`\\hat Z = \\sum_i w_i`. Curved ridges and separate modes cost it no more than a round posterior does, which
+is what the paper's 11-parameter posterior needs (two label-switched modes, a thin curved ridge in each).
+
+The prior is the problem's box prior exactly: the unit cube maps to the box by each parameter's inverse CDF
+(:meth:`~bayestissue.inference.parameters.ParameterSet.from_prior_quantiles`; uniform and log-uniform boxes as
+on the emcee path). The likelihood is the batched :meth:`CalibrationProblem.log_likelihood` (nautilus's
+vectorised interface passes ``n_batch`` points at once); a failed forward solve is :math:`L = 0`, counted.
+
+With ``exchangeable`` parameter groups (the problem's prior keeps the first group's leading parameter the
+larger, density doubled) the runs sample the whole box, where the likelihood has both label-switched copies of
+every mode, and the draws are folded afterwards (:meth:`CalibrationProblem.canonical`). The evidence is the same:
+with a symmetric likelihood, :math:`\\int_{\\text{half}} L\\, 2\\pi = \\int L \\pi`.
+
+Runs go to forked processes (:mod:`~bayestissue.inference.sampling.processes`), each checkpointed in its own
+nautilus HDF5 file and resumable; diagnostics in :mod:`bayestissue.inference.evidence`.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.special import logsumexp
+
+from bayestissue._validation import ValidationError
+from bayestissue.inference.problem import CalibrationProblem
+from bayestissue.inference.sampling.processes import run_in_processes
+
+__all__ = ["NestedOptions", "NestedRun", "NestedSample", "sample_nested"]
+
+
+def _count(name, v, low):
+    if not (isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= low):
+        raise ValidationError(name, v, f"an integer >= {low}")
+
+
+@dataclass(frozen=True)
+class NestedOptions:
+    """Options of the nested engine (validated on construction).
+
+    Parameters
+    ----------
+    n_live : nautilus live points (the points a new shell's bound must enclose); more resolve smaller modes.
+    n_eff : importance effective sample size each run samples up to after the exploration.
+    n_runs : independent runs (different seeds; >= 2 for the between-run R-hat and evidence spread).
+    n_processes : parallel processes (default ``min(n_runs, cores)``).
+    n_networks : neural networks per bound (nautilus default 4; their training dominates the cost of a cheap
+        likelihood).
+    f_live : the exploration ends when the live set holds less than this share of the evidence.
+    max_evaluations : likelihood evaluations per run at most (None: no cap); a capped run is reported as such.
+    report_every : likelihood evaluations between progress reports (and checkpoints of the state).
+    discard_exploration : drop the points of the exploration phase from the posterior and the evidence
+        (unbiased; costs more evaluations, but no network training). On the linear-Gaussian stand-in (3
+        parameters, 200 live points, 4 runs) the evidence was 0.034 below the closed form with them (about 3
+        standard errors) and 0.002 without them.
+    """
+
+    n_live: int = 1000
+    n_eff: int = 1000
+    n_runs: int = 4
+    n_processes: int | None = None
+    n_networks: int = 4
+    f_live: float = 0.01
+    max_evaluations: int | None = None
+    report_every: int = 5000
+    discard_exploration: bool = True
+
+    def __post_init__(self):
+        for name, low in (("n_live", 10), ("n_eff", 1), ("n_runs", 1), ("n_networks", 1), ("report_every", 1)):
+            _count(name, getattr(self, name), low)
+        if self.n_processes is not None:
+            _count("n_processes", self.n_processes, 1)
+        if self.max_evaluations is not None:
+            _count("max_evaluations", self.max_evaluations, 1)
+        if isinstance(self.f_live, bool) or not (isinstance(self.f_live, float | int) and 0.0 < self.f_live < 1.0):
+            raise ValidationError("f_live", self.f_live, "a number in (0, 1)")
+        if not isinstance(self.discard_exploration, bool):
+            raise ValidationError("discard_exploration", self.discard_exploration, "true or false")
+
+
+@dataclass
+class NestedRun:
+    """One nautilus run: weighted points in natural units (not folded), the evidence and the cost."""
+
+    points: np.ndarray  # (n, ndim)
+    log_w: np.ndarray  # (n,) normalised: logsumexp(log_w) == 0
+    log_l: np.ndarray  # (n,)
+    log_z: float
+    n_like: int
+    n_failed: int
+    seed: int
+    time_s: float
+    finished: bool
+
+    @property
+    def weights(self) -> np.ndarray:
+        return np.exp(self.log_w)
+
+    @property
+    def n_eff(self) -> float:
+        """Kish's effective sample size of the importance weights, :math:`(\\sum w)^2 / \\sum w^2`."""
+        return float(1.0 / np.sum(self.weights**2))
+
+    @property
+    def log_z_err(self) -> float:
+        """Standard error of :math:`\\log\\hat Z` from the weights alone: for an importance-sampling mean
+        :math:`\\hat Z`, :math:`\\operatorname{Var}(\\hat Z)/Z^2 \\approx 1/n_\\text{eff} - 1/n` (delta method, Kish's
+        :math:`n_\\text{eff}`). It leaves out the shells' volume errors; the spread across runs checks it."""
+        return float(np.sqrt(max(1.0 / self.n_eff - 1.0 / self.log_w.size, 0.0)))
+
+
+@dataclass
+class NestedSample:
+    """Independent nested runs of one posterior, with the parameter layout."""
+
+    names: tuple[str, ...]
+    runs: list[NestedRun]
+    problem: CalibrationProblem = field(repr=False)
+    time_s: float = 0.0
+    seeds: list[int] | None = None
+    #: seed of the equal-weight resampling (same seed, same draws)
+    draw_seed: int = 0
+
+    @property
+    def n_failed(self) -> int:
+        return sum(r.n_failed for r in self.runs)
+
+    @property
+    def n_evaluations(self) -> int:
+        return sum(r.n_like for r in self.runs)
+
+    @property
+    def log_z(self) -> float:
+        """Mean of the runs' :math:`\\log\\hat Z`."""
+        return float(np.mean([r.log_z for r in self.runs]))
+
+    @property
+    def log_z_err(self) -> float:
+        """Error of :attr:`log_z`: the larger of the runs' scatter over :math:`\\sqrt{n}` and their own errors
+        combined, :math:`\\sqrt{\\sum_k \\sigma_k^2}/n`."""
+        lz = np.array([r.log_z for r in self.runs])
+        own = np.sqrt(np.sum([r.log_z_err**2 for r in self.runs])) / lz.size
+        scatter = lz.std(ddof=1) / np.sqrt(lz.size) if lz.size > 1 else 0.0
+        return float(max(own, scatter))
+
+    def n_draws_per_run(self) -> int:
+        """Equal-weight draws per run: the smallest run's :math:`n_\\text{eff}` (at least 100, at most 4000)."""
+        return int(np.clip(min(r.n_eff for r in self.runs), 100, 4000))
+
+    def draws(self) -> np.ndarray:
+        """Equal-weight draws ``(n_runs, n_draws, ndim)`` (natural units, folded, in random order): systematic
+        resampling of each run's weighted points, seeded by :attr:`draw_seed`."""
+        if getattr(self, "_draws", None) is None:
+            rng = np.random.default_rng(self.draw_seed)
+            n = self.n_draws_per_run()
+            out = []
+            for r in self.runs:
+                u = (rng.random() + np.arange(n)) / n
+                idx = np.minimum(np.searchsorted(np.cumsum(r.weights), u), r.log_w.size - 1)
+                out.append(r.points[rng.permutation(idx)])
+            self._draws = self.problem.canonical(np.stack(out))
+        return self._draws
+
+    def flat(self) -> np.ndarray:
+        """All equal-weight draws as ``(n, ndim)`` natural units."""
+        d = self.draws()
+        return d.reshape(-1, d.shape[-1])
+
+    def weighted(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every run's weighted points pooled (folded): points ``(n, ndim)``, weights summing to one (each run
+        weighing ``1/n_runs``), and the run of each point."""
+        pts = self.problem.canonical(np.concatenate([r.points for r in self.runs]))
+        w = np.concatenate([r.weights / len(self.runs) for r in self.runs])
+        run = np.concatenate([np.full(r.log_w.size, k) for k, r in enumerate(self.runs)])
+        return pts, w, run
+
+
+def _likelihood(problem: CalibrationProblem):
+    def log_l(x):
+        ll = np.asarray(problem.log_likelihood(np.atleast_2d(x)), dtype=float)
+        return np.where(np.isfinite(ll), ll, -np.inf)
+
+    return log_l
+
+
+def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> NestedRun:
+    """Run ``k``: a nautilus sampler driven in chunks of ``report_every`` evaluations (progress after each)."""
+    from nautilus import Sampler
+
+    n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
+    if path is not None and not resume and Path(path).exists():
+        Path(path).unlink()
+    sampler = Sampler(
+        problem.parameters.from_prior_quantiles,
+        _likelihood(problem),
+        n_dim=problem.ndim,
+        n_live=options.n_live,
+        n_networks=options.n_networks,
+        vectorized=True,
+        seed=int(seed),
+        filepath=None if path is None else str(path),
+        resume=bool(resume),
+    )
+    cap = np.inf if options.max_evaluations is None else options.max_evaluations
+    t0 = time.perf_counter()
+    finished = False
+    while not finished and sampler.n_like < cap:
+        finished = sampler.run(
+            f_live=options.f_live,
+            n_eff=options.n_eff,
+            n_like_max=min(sampler.n_like + options.report_every, cap),
+            discard_exploration=options.discard_exploration,
+        )
+        if progress is not None:
+            progress(k, int(sampler.n_like), float(sampler.n_eff), bool(sampler.explored), float(sampler.log_z))
+    points, log_w, log_l = sampler.posterior()
+    log_w = np.asarray(log_w, dtype=float)
+    return NestedRun(
+        points=np.asarray(points, dtype=float),
+        log_w=log_w - logsumexp(log_w),
+        log_l=np.asarray(log_l, dtype=float),
+        log_z=float(sampler.log_z),
+        n_like=int(problem.n_evaluations - n_eval0),
+        n_failed=int(problem.n_failed - n_fail0),
+        seed=int(seed),
+        time_s=time.perf_counter() - t0,
+        finished=bool(finished),
+    )
+
+
+def sample_nested(
+    problem: CalibrationProblem,
+    *,
+    options: NestedOptions = NestedOptions(),
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    progress: Callable | None = None,
+    rng=None,
+) -> NestedSample:
+    """Run ``options.n_runs`` independent nautilus runs, in parallel processes where cores allow.
+
+    Parameters
+    ----------
+    problem : CalibrationProblem (its box prior and batched log-likelihood; no starting point needed).
+    options : NestedOptions
+    checkpoint : directory for the runs' nautilus files (``nested_<k>.h5``); none without it.
+    resume : continue the runs stored in ``checkpoint`` (nautilus reads its own file); otherwise they are replaced.
+    progress : ``progress(run, n_evaluations, n_eff, explored, log_z)``, called in this process after every
+        ``options.report_every`` evaluations of a run.
+    rng : seed or Generator (the runs' seeds and the equal-weight resampling).
+    """
+    rng = np.random.default_rng(rng)
+    seeds = [int(s) for s in rng.integers(2**31 - 1, size=options.n_runs)]
+    draw_seed = int(rng.integers(2**31 - 1))
+    paths = [None] * options.n_runs
+    if checkpoint is not None:
+        Path(checkpoint).mkdir(parents=True, exist_ok=True)
+        paths = [Path(checkpoint) / f"nested_{k}.h5" for k in range(options.n_runs)]
+    n_proc = min(options.n_processes or os.cpu_count() or 1, options.n_runs)
+    t0 = time.perf_counter()
+    args = [(k, seeds[k], options, paths[k], resume) for k in range(options.n_runs)]
+    runs = run_in_processes(problem, _run, args, n_proc, progress)
+    return NestedSample(problem.names, runs, problem, time.perf_counter() - t0, seeds, draw_seed)
