@@ -22,8 +22,14 @@ The evidence: the runs' :math:`\\log\\hat Z_k` must agree with their own errors 
 (:attr:`NestedRun.log_z_err`): :math:`\\chi^2 = \\sum_k (\\log\\hat Z_k - \\overline{\\log Z})^2/\\sigma_k^2` with
 :math:`n - 1` degrees of freedom, p-value at least 0.01, and their range below 0.2.
 
-Verdict (:func:`assess_nested`): at least 4 runs, each finished (not stopped by an evaluation cap), R-hat < 1.01,
-bulk and tail ESS >= 400 for every sampled parameter, the evidence consistent as above.
+The peak: nested sampling compresses the prior towards the likelihood's peak shell by shell, and a run whose
+bounds lose the peak region can end with a consistent-looking but wrong answer. Where a least-squares optimum is
+known, every run's largest log-likelihood must come within :math:`d/2` of it (``reference_log_l``; :math:`d` the
+number of sampled parameters: posterior draws of a :math:`d`-dimensional Gaussian lie about :math:`d/2` below the
+peak, the best of thousands much closer).
+
+Verdict (:func:`assess_nested`): at least 4 runs, each finished (not stopped by an evaluation cap) and reaching the
+peak, R-hat < 1.01, bulk and tail ESS >= 400 for every sampled parameter, the evidence consistent as above.
 """
 
 from __future__ import annotations
@@ -82,6 +88,8 @@ class NestedReport:
     finished: np.ndarray  # (n_runs,) bool
     n_draws: int
     time_s: float
+    max_log_l: np.ndarray  # (n_runs,) largest log-likelihood of each run
+    reference_log_l: float | None = None
     rhat_max: float = 1.01
     ess_min: float = 400.0
     spread_max: float = 0.2
@@ -106,10 +114,18 @@ class NestedReport:
         return bool(self.log_z_spread < self.spread_max and self.log_z_p >= self.p_min)
 
     @property
+    def short_of_peak(self) -> np.ndarray:
+        """Runs whose largest log-likelihood stays more than d/2 below ``reference_log_l``."""
+        if self.reference_log_l is None:
+            return np.zeros(self.log_z.size, dtype=bool)
+        return self.max_log_l < self.reference_log_l - 0.5 * len(self.names)
+
+    @property
     def converged(self) -> bool:
         return bool(
             self.log_z.size >= self.min_runs
             and np.all(self.finished)
+            and not np.any(self.short_of_peak)
             and np.all(self.rhat < self.rhat_max)
             and np.all(self.ess_bulk >= self.ess_min)
             and np.all(self.ess_tail >= self.ess_min)
@@ -133,6 +149,12 @@ class NestedReport:
             lines.append(f"{self.log_z.size} run(s), at least {self.min_runs} needed")
         if not np.all(self.finished):
             lines.append(f"runs {np.flatnonzero(~self.finished).tolist()} stopped at the evaluation cap")
+        if np.any(self.short_of_peak):
+            lines.append(
+                f"runs {np.flatnonzero(self.short_of_peak).tolist()} never came within d/2 = {0.5 * len(self.names):g} "
+                f"of the least-squares optimum's log-likelihood {self.reference_log_l:.1f} (best "
+                f"{', '.join(f'{v:.1f}' for v in self.max_log_l)}): they missed the peak"
+            )
         bad = [n for n, r in zip(self.names, self.rhat, strict=True) if not r < self.rhat_max]
         if bad and self.log_z.size >= 2:  # one run has no R-hat (said above)
             lines.append(f"R-hat >= {self.rhat_max} for {bad} (max {np.nanmax(self.rhat):.3f})")
@@ -152,8 +174,11 @@ class NestedReport:
         return float(np.min(self.ess_bulk) / self.time_s) if self.time_s > 0 else np.nan
 
 
-def assess_nested(sample, *, rhat_max: float = 1.01, ess_min: float = 400.0) -> NestedReport:
-    """Diagnostics and verdict of a :class:`~bayestissue.inference.sampling.NestedSample`."""
+def assess_nested(
+    sample, *, reference_log_l: float | None = None, rhat_max: float = 1.01, ess_min: float = 400.0
+) -> NestedReport:
+    """Diagnostics and verdict of a :class:`~bayestissue.inference.sampling.NestedSample`; ``reference_log_l`` the
+    log-likelihood at a known optimum (e.g. least squares with the plug-in noise), checked against every run's best."""
     draws = sample.draws()
     ndim = draws.shape[-1]
     rhat = rhat_ensembles(draws[:, :, None, :]) if draws.shape[0] >= 2 else np.full(ndim, np.nan)
@@ -173,6 +198,8 @@ def assess_nested(sample, *, rhat_max: float = 1.01, ess_min: float = 400.0) -> 
         finished=np.array([r.finished for r in sample.runs]),
         n_draws=int(draws.shape[0] * draws.shape[1]),
         time_s=float(sample.time_s),
+        max_log_l=np.array([np.max(r.log_l) for r in sample.runs]),
+        reference_log_l=None if reference_log_l is None else float(reference_log_l),
         rhat_max=rhat_max,
         ess_min=ess_min,
     )

@@ -237,6 +237,10 @@ class CalibrationProblem:
         theta, _ = self._batch(theta)
         return self.predict_material(theta[:, : self.n_material])
 
+    def nuisance_slice(self, k: int) -> slice:
+        """Columns of experiment ``k``'s nuisance parameters in ``theta``."""
+        return self._nuis_slices[k]
+
     def nuisance(self, theta, k: int) -> np.ndarray:
         """Nuisance block ``(n_sets, n_nuisance_k)`` of experiment ``k``."""
         theta, _ = self._batch(theta)

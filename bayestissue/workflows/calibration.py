@@ -41,6 +41,7 @@ from bayestissue.inference import (
 )
 from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.posterior import to_inference_data
+from bayestissue.inference.sampling.nested import peak_log_likelihood
 from bayestissue.inference.summary import summary_table, table_markdown
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.problem import build_problem, reference_values
@@ -129,7 +130,8 @@ def run_calibration(
             problem, options=config.nested, checkpoint=ckpt, resume=resume, progress=progress, rng=rng
         )
         times["sampling"] = time.perf_counter() - t0
-        report = assess_nested(sample)
+        peak = peak_log_likelihood(problem, config.nested, problem.nuisance_estimate(best.x))
+        report = assess_nested(sample, reference_log_l=peak)
         engine_attrs = {}
     else:
         t0 = time.perf_counter()

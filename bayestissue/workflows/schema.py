@@ -106,6 +106,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                       "evidence", low=0.0, low_open=True),
         "max_evaluations": Key("int", "none", "likelihood evaluations per run at most", low=1),
         "report_every": Key("int", "5000", "evaluations between progress reports and checkpoints", low=1),
+        "marginalise_noise": Key("bool", "true", "integrate unknown Gaussian noise sds out analytically (exact; the "
+                                 "runs sample the material parameters, the sds are drawn afterwards)"),
         "discard_exploration": Key("bool", "true", "leave the exploration phase's points out of the posterior and "
                                    "the evidence (unbiased)"),
     },

@@ -21,6 +21,11 @@ larger, density doubled) the runs sample the whole box, where the likelihood has
 every mode, and the draws are folded afterwards (:meth:`CalibrationProblem.canonical`). The evidence is the same:
 with a symmetric likelihood, :math:`\\int_{\\text{half}} L\\, 2\\pi = \\int L \\pi`.
 
+Unknown Gaussian noise sds are integrated out analytically by default (:mod:`bayestissue.inference.marginal_noise`):
+the runs sample the material parameters under the marginal likelihood (same evidence), and each point's sd is
+drawn from its conditional posterior afterwards. Measured on the T1 mirror model: with the sd sampled, one of two
+runs' bounds cut the sd's posterior at 0.0200 mm (its lower side, where the likelihood is higher), R-hat 1.64.
+
 Runs go to forked processes (:mod:`~bayestissue.inference.sampling.processes`), each checkpointed in its own
 nautilus HDF5 file and resumable; diagnostics in :mod:`bayestissue.inference.evidence`.
 """
@@ -37,10 +42,11 @@ import numpy as np
 from scipy.special import logsumexp
 
 from bayestissue._validation import ValidationError
+from bayestissue.inference.marginal_noise import MarginalNoise, can_marginalise
 from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.sampling.processes import run_in_processes
 
-__all__ = ["NestedOptions", "NestedRun", "NestedSample", "sample_nested"]
+__all__ = ["NestedOptions", "NestedRun", "NestedSample", "nested_target", "peak_log_likelihood", "sample_nested"]
 
 
 def _count(name, v, low):
@@ -63,6 +69,9 @@ class NestedOptions:
     f_live : the exploration ends when the live set holds less than this share of the evidence.
     max_evaluations : likelihood evaluations per run at most (None: no cap); a capped run is reported as such.
     report_every : likelihood evaluations between progress reports (and checkpoints of the state).
+    marginalise_noise : integrate every sampled Gaussian noise sd out analytically and sample the material
+        parameters alone (:mod:`bayestissue.inference.marginal_noise`; exact, same evidence); each point's sd is then
+        drawn from its conditional posterior. Ignored for other noise models.
     discard_exploration : drop the points of the exploration phase from the posterior and the evidence
         (unbiased; costs more evaluations, but no network training). On the linear-Gaussian stand-in (3
         parameters, 200 live points, 4 runs) the evidence was 0.034 below the closed form with them (about 3
@@ -77,6 +86,7 @@ class NestedOptions:
     f_live: float = 0.01
     max_evaluations: int | None = None
     report_every: int = 5000
+    marginalise_noise: bool = True
     discard_exploration: bool = True
 
     def __post_init__(self):
@@ -88,8 +98,9 @@ class NestedOptions:
             _count("max_evaluations", self.max_evaluations, 1)
         if isinstance(self.f_live, bool) or not (isinstance(self.f_live, float | int) and 0.0 < self.f_live < 1.0):
             raise ValidationError("f_live", self.f_live, "a number in (0, 1)")
-        if not isinstance(self.discard_exploration, bool):
-            raise ValidationError("discard_exploration", self.discard_exploration, "true or false")
+        for name in ("discard_exploration", "marginalise_noise"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValidationError(name, getattr(self, name), "true or false")
 
 
 @dataclass
@@ -98,7 +109,7 @@ class NestedRun:
 
     points: np.ndarray  # (n, ndim)
     log_w: np.ndarray  # (n,) normalised: logsumexp(log_w) == 0
-    log_l: np.ndarray  # (n,)
+    log_l: np.ndarray  # (n,) the sampled likelihood: with the noise sds integrated out where the run did that
     log_z: float
     n_like: int
     n_failed: int
@@ -189,12 +200,31 @@ class NestedSample:
         return pts, w, run
 
 
-def _likelihood(problem: CalibrationProblem):
+def nested_target(problem: CalibrationProblem, options: NestedOptions):
+    """What a run samples: ``(n_dim, prior transform, log-likelihood, complete)``. With the noise sds integrated
+    out (``options.marginalise_noise`` and only Gaussian sds among the nuisance parameters) the runs see the
+    ``n_material`` sampled material parameters and the marginal likelihood, and ``complete(points, rng)`` draws the
+    sds; otherwise all of ``theta`` and ``complete`` is the identity."""
+    if options.marginalise_noise and can_marginalise(problem):
+        marginal = MarginalNoise(problem)
+        return problem.n_material, problem.material.from_prior_quantiles, marginal.log_likelihood, marginal.complete
+
     def log_l(x):
         ll = np.asarray(problem.log_likelihood(np.atleast_2d(x)), dtype=float)
         return np.where(np.isfinite(ll), ll, -np.inf)
 
-    return log_l
+    def identity(x, rng=None):
+        return np.asarray(x, dtype=float)
+
+    return problem.ndim, problem.parameters.from_prior_quantiles, log_l, identity
+
+
+def peak_log_likelihood(problem: CalibrationProblem, options: NestedOptions, theta) -> float:
+    """The runs' log-likelihood at a full ``theta`` (e.g. the least-squares optimum with its plug-in noise), for
+    :func:`~bayestissue.inference.evidence.assess_nested`'s peak check."""
+    theta = np.asarray(theta, dtype=float)
+    n_dim, _, log_l, _ = nested_target(problem, options)
+    return float(log_l(theta[None, :n_dim])[0])
 
 
 def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> NestedRun:
@@ -204,10 +234,11 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
     n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
     if path is not None and not resume and Path(path).exists():
         Path(path).unlink()
+    n_dim, prior, log_l, complete = nested_target(problem, options)
     sampler = Sampler(
-        problem.parameters.from_prior_quantiles,
-        _likelihood(problem),
-        n_dim=problem.ndim,
+        prior,
+        log_l,
+        n_dim=n_dim,
         n_live=options.n_live,
         n_networks=options.n_networks,
         vectorized=True,
@@ -230,7 +261,7 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
     points, log_w, log_l = sampler.posterior()
     log_w = np.asarray(log_w, dtype=float)
     return NestedRun(
-        points=np.asarray(points, dtype=float),
+        points=complete(points, rng=np.random.default_rng([seed, 1])),
         log_w=log_w - logsumexp(log_w),
         log_l=np.asarray(log_l, dtype=float),
         log_z=float(sampler.log_z),

@@ -1,0 +1,137 @@
+"""Simulation-based calibration of the nested engine through the real forward model (issue 18, part 2 (d)).
+
+Talts et al. 2018 (arXiv:1804.06788): draw generating values from the prior, simulate data with noise, sample the
+posterior, and record the rank of each generating value among ``L`` posterior draws. If the engine samples the
+posterior correctly, every parameter's ranks are uniform on ``0..L``.
+
+The problem: the first ``--n-obs`` observation times of the T1 creep test (its specimen, stress and time step), the
+mirror model's fibre law (family 3 tied to family 2) with ``mu``, ``ginf2``, ``beta2`` sampled on log-uniform boxes
+narrower than Table 1's (so that every prior draw is a well-posed creep curve; the boxes are printed), every other
+parameter at Table 1's T1 value, known noise sd. One nested run per replication (``--live`` live points,
+``--neff`` importance ESS, one network per bound); replications in parallel processes.
+
+Printed: per parameter a chi-square test of the ranks in 10 bins (9 dof) and a KS test of the randomised fractional
+ranks, with p-values; the rank histograms go to ``--out`` (PNG) when given. No pass/fail: read the p-values (with
+three parameters, one p below 0.01 by chance has probability about 3 %).
+
+    python benchmarks/sbc_nested.py [--reps 100] [--n-obs 60] [--draws 99] [--live 200] [--neff 400] [--out sbc.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import multiprocessing as mp
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+from scipy import stats  # noqa: E402
+
+from bayestissue.inference import NestedOptions, sample_nested  # noqa: E402
+from bayestissue.mechanics import load_experiment, simulate  # noqa: E402
+from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS  # noqa: E402
+from bayestissue.workflows import CalibrationConfig, build_problem  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLED = {"mu": (0.5, 5.0), "ginf2": (5.0, 50.0), "beta2": (2e-3, 5e-2)}
+NOISE_SD = 0.01
+NAMES = ("mu", "kappa", "ginf1", "gamma1", "beta1", "ginf2", "gamma2", "beta2", "ginf3", "gamma3", "beta3")
+
+
+def _replication(r, args):
+    rng = np.random.default_rng([args.seed, r])
+    exp = load_experiment(ROOT / "data" / "T1.toml")
+    exp = dataclasses.replace(exp, time_s=exp.time_s[: args.n_obs], displacement_mm=None, force_mN=None)
+    truth = dict(zip(NAMES, PAPER_PARAMETERS["T1"], strict=True))
+    for name, (lo, hi) in SAMPLED.items():
+        truth[name] = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+    for follower, leader in MIRROR_TIES:
+        truth[follower] = truth[leader]
+    clean = np.atleast_2d(simulate(exp, np.array([truth[n] for n in NAMES])))[0]
+    if not np.all(np.isfinite(clean)):
+        return r, None, 0.0
+    data = clean + NOISE_SD * rng.standard_normal(clean.size)
+    exp = dataclasses.replace(exp, displacement_mm=data)
+    config = CalibrationConfig(
+        sampled=list(SAMPLED),
+        tied=dict(MIRROR_TIES),
+        bounds={n: list(b) for n, b in SAMPLED.items()},
+        initial={n: truth[n] for n in NAMES if n not in dict(MIRROR_TIES)},
+        noise_options={"sd": NOISE_SD},
+    )
+    problem = build_problem([exp], config)
+    t0 = time.perf_counter()
+    opts = NestedOptions(n_live=args.live, n_eff=args.neff, n_runs=1, n_networks=1, n_processes=1)
+    sample = sample_nested(problem, options=opts, rng=int(rng.integers(2**31 - 1)))
+    draws = sample.flat()
+    keep = draws[np.linspace(0, draws.shape[0] - 1, args.draws).astype(int)]
+    ranks = np.array([np.sum(keep[:, j] < truth[n]) for j, n in enumerate(problem.names)])
+    return r, ranks, time.perf_counter() - t0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--reps", type=int, default=100)
+    ap.add_argument("--n-obs", type=int, default=60, help="first observations of T1 kept (6 s apart)")
+    ap.add_argument("--draws", type=int, default=99, help="posterior draws ranked against (L)")
+    ap.add_argument("--live", type=int, default=200)
+    ap.add_argument("--neff", type=int, default=400)
+    ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--processes", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--out", help="PNG of the rank histograms")
+    args = ap.parse_args(argv)
+    print(f"boxes (log-uniform): {SAMPLED}; noise sd {NOISE_SD} mm; {args.n_obs} observations; L = {args.draws}")
+    t0 = time.perf_counter()
+    ranks, times, skipped = [], [], 0
+    ctx = mp.get_context("fork")
+    with ProcessPoolExecutor(args.processes, mp_context=ctx) as ex:
+        for _r, rk, dt in ex.map(_replication, range(args.reps), [args] * args.reps):
+            if rk is None:
+                skipped += 1
+                continue
+            ranks.append(rk)
+            times.append(dt)
+            if len(ranks) % 10 == 0:
+                print(f"  {len(ranks)} replications, {time.perf_counter() - t0:.0f} s", flush=True)
+    ranks = np.array(ranks)
+    n = ranks.shape[0]
+    print(
+        f"{n} replications ({skipped} skipped: forward solve failed at the generating values), "
+        f"{time.perf_counter() - t0:.0f} s wall, {np.median(times):.1f} s median per nested run"
+    )
+    bins = 10
+    edges = np.linspace(0, args.draws + 1, bins + 1)
+    u = (ranks + np.random.default_rng(0).random(ranks.shape)) / (args.draws + 1)
+    for j, name in enumerate(SAMPLED):
+        counts, _ = np.histogram(ranks[:, j], bins=edges)
+        p_chi2 = stats.chisquare(counts).pvalue
+        p_ks = stats.kstest(u[:, j], "uniform").pvalue
+        print(f"{name}: rank counts per decile {counts.tolist()}; chi-square p = {p_chi2:.3f}, KS p = {p_ks:.3f}")
+    if args.out:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(1, len(SAMPLED), figsize=(4 * len(SAMPLED), 3.2))
+        lo, hi = stats.binom.ppf([0.005, 0.995], n, 1 / bins)
+        for ax, (j, name) in zip(axes, enumerate(SAMPLED), strict=True):
+            ax.hist(ranks[:, j], bins=edges, color="tab:blue", edgecolor="w")
+            ax.axhspan(lo, hi, color="0.85", zorder=-1, label="99 % band of uniform ranks")
+            ax.set_xlabel(f"rank of the generating {name} among {args.draws} draws")
+            ax.set_ylabel("replications")
+        axes[0].legend(fontsize=8, loc="lower left")
+        fig.suptitle(f"simulation-based calibration of the nested engine, {n} replications (short T1 creep)")
+        fig.tight_layout()
+        fig.savefig(args.out, dpi=110)
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
