@@ -49,12 +49,14 @@ def test_fit_nested_engine_writes_evidence_weights_and_figures(tmp_path, capsys)
     cfg = _config(
         tmp_path,
         '[parameters]\nsampled = ["mu", "kappa"]\n[warmstart]\nn_starts = 1\n[sampler]\nseed = 5\nengine = "nested"\n'
-        "[nested]\nn_live = 200\nn_eff = 300\nn_runs = 2\nn_networks = 1\n",
+        "[nested]\nn_live = 200\nn_eff = 300\nn_runs = 2\nn_networks = 1\nreport_every = 1000\n",
     )
     out = tmp_path / "out"
-    code = main(["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(out), "--no-progress"])
+    code = main(["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(out)])
     assert code == 0
-    text = capsys.readouterr().out
+    captured = capsys.readouterr()
+    text = captured.out
+    assert "nested sampling" in captured.err and "run 1: n_eff" in captured.err  # the progress bar
     assert "then 2 nested runs" in text
     assert "NOT CONVERGED: 2 run(s), at least 4 needed" in text
     idata = read_inference_data(out / "posterior.nc")
