@@ -105,7 +105,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "f_live": Key("float", "0.01", "the exploration ends when the live set holds less than this share of the "
                       "evidence", low=0.0, low_open=True),
         "max_evaluations": Key("int", "none", "likelihood evaluations per run at most", low=1),
-        "report_every": Key("int", "5000", "evaluations between progress reports and checkpoints", low=1),
+        "report_every": Key("int", "5000", "evaluations between progress reports (each run checkpoints after every "
+                            "batch)", low=1),
         "marginalise_noise": Key("bool", "true", "integrate unknown Gaussian noise sds out analytically (exact; the "
                                  "runs sample the material parameters, the sds are drawn afterwards)"),
         "discard_exploration": Key("bool", "true", "leave the exploration phase's points out of the posterior and "

@@ -68,7 +68,8 @@ class NestedOptions:
         likelihood).
     f_live : the exploration ends when the live set holds less than this share of the evidence.
     max_evaluations : likelihood evaluations per run at most (None: no cap); a capped run is reported as such.
-    report_every : likelihood evaluations between progress reports (and checkpoints of the state).
+    report_every : likelihood evaluations between progress reports (nautilus writes its checkpoint file itself,
+        after every batch of evaluations and every new bound).
     marginalise_noise : integrate every sampled Gaussian noise sd out analytically and sample the material
         parameters alone (:mod:`bayestissue.inference.marginal_noise`; exact, same evidence); each point's sd is then
         drawn from its conditional posterior. Ignored for other noise models.
