@@ -76,3 +76,23 @@ def lopsided_two_mode_problem(weight_right: float = 0.7):
     y = np.concatenate([np.full(10, 4.0), np.full(10, 0.5)])
     term = ExperimentTerm("lopsided", np.arange(20.0), y, _LopsidedSquare(c), GaussianNoise(sd=0.1))
     return CalibrationProblem([term], ParameterSet(specs))
+
+
+class _SumProduct:
+    """Forward model ``(a + b, ..., a b, ...)`` (picklable): symmetric in ``a`` and ``b``."""
+
+    def __call__(self, params):
+        p = np.atleast_2d(np.asarray(params, dtype=float))
+        return np.column_stack(
+            [np.repeat(p[:, :1] + p[:, 1:2], 10, axis=1), np.repeat(p[:, :1] * p[:, 1:2], 10, axis=1)]
+        )
+
+
+def exchangeable_problem(exchangeable=True):
+    """``a + b = 3`` and ``a b = 2`` observed 10 times each (sd 0.05), uniform priors on ``[0, 4]``: two
+    label-switched modes (2, 1) and (1, 2); with ``exchangeable`` the prior keeps ``a >= b``."""
+    specs = tuple(ParameterSpec(n, "1", 0.0, 4.0, prior="uniform", value=2.0) for n in ("a", "b"))
+    y = np.concatenate([np.full(10, 3.0), np.full(10, 2.0)])
+    term = ExperimentTerm("sumprod", np.arange(20.0), y, _SumProduct(), GaussianNoise(sd=0.05))
+    groups = [["a"], ["b"]] if exchangeable else None
+    return CalibrationProblem([term], ParameterSet(specs), exchangeable=groups)

@@ -184,7 +184,8 @@ class NestedSample:
                 u = (rng.random() + np.arange(n)) / n
                 idx = np.minimum(np.searchsorted(np.cumsum(r.weights), u), r.log_w.size - 1)
                 out.append(r.points[rng.permutation(idx)])
-            self._draws = self.problem.canonical(np.stack(out))
+            stacked = np.stack(out)
+            self._draws = self.problem.canonical(stacked.reshape(-1, stacked.shape[-1])).reshape(stacked.shape)
         return self._draws
 
     def flat(self) -> np.ndarray:
