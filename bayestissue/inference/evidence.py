@@ -14,6 +14,9 @@ so its effective sample size is
   (:math:`\\hat F_w` the weighted empirical CDF at mid-weight);
 * **tail ESS**: the smaller :math:`n_\\text{eff}` of the indicators :math:`x \\le q_{0.05}` and :math:`x \\le
   q_{0.95}` (weighted quantiles), i.e. :math:`p(1-p)/\\sum_i w_i^2 (I_i - p)^2`;
+* each capped at Kish's :math:`(\\sum w)^2/\\sum w^2`: with degenerate weights (one point carrying nearly all of
+  them) the delta-method variance vanishes with the dominant point's deviation and the ratio above explodes
+  (measured: 1e125 on a capped 11-parameter run whose Kish ESS was 1);
 * both summed over the independent runs;
 * **R-hat**: rank-normalised split :math:`\\hat R` with one chain per run, on each run's equal-weight draws
   (:meth:`NestedSample.draws`).
@@ -64,13 +67,16 @@ def weighted_ess(x, w) -> tuple[np.ndarray, np.ndarray]:
     """Bulk and tail ESS ``(ndim,)`` each of one run's weighted points ``x`` ``(n, ndim)`` (see the module)."""
     x = np.asarray(x, dtype=float)
     w = np.asarray(w, dtype=float) / np.sum(w)
+    kish = 1.0 / np.sum(w**2)
     bulk, tail = np.empty(x.shape[1]), np.empty(x.shape[1])
     for j in range(x.shape[1]):
         o = np.argsort(x[:, j], kind="stable")
         cdf = np.empty_like(w)
         cdf[o] = np.cumsum(w[o]) - 0.5 * w[o]
-        bulk[j] = _n_eff(ndtri(np.clip(cdf, 1e-12, 1 - 1e-12)), w)
-        tail[j] = min(_n_eff((x[:, j] <= weighted_quantile(x[:, j], w, q)).astype(float), w) for q in (0.05, 0.95))
+        bulk[j] = min(_n_eff(ndtri(np.clip(cdf, 1e-12, 1 - 1e-12)), w), kish)
+        tail[j] = min(
+            kish, *(_n_eff((x[:, j] <= weighted_quantile(x[:, j], w, q)).astype(float), w) for q in (0.05, 0.95))
+        )
     return bulk, tail
 
 
@@ -181,7 +187,8 @@ def assess_nested(
     log-likelihood at a known optimum (e.g. least squares with the plug-in noise), checked against every run's best."""
     draws = sample.draws()
     ndim = draws.shape[-1]
-    rhat = rhat_ensembles(draws[:, :, None, :]) if draws.shape[0] >= 2 else np.full(ndim, np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):  # runs collapsed onto one point: NaN, i.e. not < 1.01
+        rhat = rhat_ensembles(draws[:, :, None, :]) if draws.shape[0] >= 2 else np.full(ndim, np.nan)
     bulk, tail = np.zeros(ndim), np.zeros(ndim)
     for r in sample.runs:
         b, t = weighted_ess(sample.problem.canonical(r.points), r.weights)

@@ -145,6 +145,10 @@ def test_weighted_ess_of_equal_weights_is_the_sample_size_and_drops_with_uneven_
     w = np.where(np.arange(5000) < 100, 50.0, 1.0)  # 100 points carry half the weight
     bulk, _ = weighted_ess(x, w)
     assert np.all(bulk < 500)
+    w = np.full(5000, 1e-12)
+    w[7] = 1.0  # one point carries all the weight: one effective draw, however the delta method reads it
+    bulk, tail = weighted_ess(x, w)
+    assert np.all(bulk < 1.01) and np.all(tail < 1.01)
 
 
 def test_inference_data_carries_draws_weights_and_evidence(linear_run):
