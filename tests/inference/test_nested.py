@@ -121,8 +121,11 @@ def test_same_seed_same_result():
 
 def test_capped_run_is_not_converged_and_resumes_from_its_checkpoint(tmp_path):
     """A run stopped by ``max_evaluations`` says so; resuming from its nautilus file goes on from the stored
-    evaluations (not from zero) and finishes."""
-    problem, _ = linear_gaussian_problem(n_obs=20, n_params=2, sd=0.1, box=20.0, rng=2)
+    evaluations (not from zero) and finishes. The noise sd is sampled (integrated out by the runs), so completing
+    the points with sd draws runs the forward model once more: those evaluations are not the run's."""
+    from bayestissue.inference import GaussianNoise
+
+    problem, _ = linear_gaussian_problem(n_obs=20, n_params=2, sd=0.1, box=20.0, noise=GaussianNoise(), rng=2)
     capped = NestedOptions(**SMALL, n_runs=1, max_evaluations=1500, report_every=500)
     seen = []
     first = sample_nested(problem, options=capped, checkpoint=tmp_path, rng=4, progress=lambda *msg: seen.append(msg))
@@ -130,6 +133,7 @@ def test_capped_run_is_not_converged_and_resumes_from_its_checkpoint(tmp_path):
     assert "stopped at the evaluation cap" in assess_nested(first).verdict()
     assert (tmp_path / "nested_0.h5").is_file()
     assert [m[1] for m in seen] == [500, 1000, 1500]
+    assert first.runs[0].n_like == 1500  # the run's evaluations, not those that complete its points
     resumed = sample_nested(problem, options=NestedOptions(**SMALL, n_runs=1), checkpoint=tmp_path, resume=True, rng=4)
     assert resumed.runs[0].finished
     # the resumed run evaluated fewer points than a fresh one needs: it kept the stored 1500

@@ -260,6 +260,7 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
         )
         if progress is not None:
             progress(k, int(sampler.n_like), float(sampler.n_eff), bool(sampler.explored), float(sampler.log_z))
+    n_like, n_failed = problem.n_evaluations - n_eval0, problem.n_failed - n_fail0  # before completing the points
     points, log_w, log_l = sampler.posterior()
     log_w = np.asarray(log_w, dtype=float)
     return NestedRun(
@@ -267,8 +268,8 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
         log_w=log_w - logsumexp(log_w),
         log_l=np.asarray(log_l, dtype=float),
         log_z=float(sampler.log_z),
-        n_like=int(problem.n_evaluations - n_eval0),
-        n_failed=int(problem.n_failed - n_fail0),
+        n_like=int(n_like),
+        n_failed=int(n_failed),
         seed=int(seed),
         time_s=time.perf_counter() - t0,
         finished=bool(finished),
