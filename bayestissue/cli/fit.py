@@ -25,6 +25,11 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--resume", action="store_true", help="continue the checkpointed sampler runs")
     p.add_argument("--seed", type=int, help="master seed (overrides the configuration)")
+    p.add_argument(
+        "--engine",
+        choices=["emcee", "nested"],
+        help="sampling engine (overrides [sampler] engine): emcee ensembles, or nested runs with the evidence",
+    )
     p.add_argument("--quick", action="store_true", help="smoke run: 2 starts, short chains (not converged)")
     p.add_argument("--no-sample", action="store_true", help="least squares only")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
@@ -50,6 +55,8 @@ def run(args) -> int:
     over = {}
     if args.seed is not None:
         over["seed"] = args.seed
+    if args.engine is not None:
+        over["engine"] = args.engine
     if args.no_sample:
         over["sample"] = False
     if args.quick:

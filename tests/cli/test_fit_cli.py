@@ -48,11 +48,11 @@ def test_fit_nested_engine_writes_evidence_weights_and_figures(tmp_path, capsys)
     the run figure replaces the traces."""
     cfg = _config(
         tmp_path,
-        '[parameters]\nsampled = ["mu", "kappa"]\n[warmstart]\nn_starts = 1\n[sampler]\nseed = 5\nengine = "nested"\n'
+        '[parameters]\nsampled = ["mu", "kappa"]\n[warmstart]\nn_starts = 1\n[sampler]\nseed = 5\n'
         "[nested]\nn_live = 200\nn_eff = 300\nn_runs = 2\nn_networks = 1\nreport_every = 1000\n",
     )
     out = tmp_path / "out"
-    code = main(["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(out)])
+    code = main(["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(out), "--engine", "nested"])
     assert code == 0
     captured = capsys.readouterr()
     text = captured.out
