@@ -49,8 +49,11 @@ def run(args) -> int:
             file=sys.stderr,
         )
         return 1
-    force = exp.nominal_stress_kpa()  # on the grid; report at the data times
-    force = np.interp(exp.time_s, exp.step_time_s, force) * exp.area_mm2
+    # the force on the grid, taken to the data times exactly as the displacement is (Experiment.interpolation: a
+    # data time inside the first step takes step 1, where the load is applied)
+    i, w = exp.interpolation()
+    stress = exp.nominal_stress_kpa()
+    force = ((1.0 - w) * stress[i] + w * stress[i + 1]) * exp.area_mm2
     meta = {
         "experiment": exp.source,
         "parameters": ", ".join(f"{n}={v:g}" for n, v in zip(names, params, strict=True)),

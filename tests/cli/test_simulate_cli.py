@@ -35,8 +35,13 @@ def test_simulate_writes_curve(tmp_path):
     cols, meta = read_table(out, required=("time_s", "displacement_mm", "force_mN"))
     p = PAPER_PARAMETERS["T1"].copy()
     p[0] = 2.5
-    np.testing.assert_allclose(cols["displacement_mm"], simulate(load_experiment(DATA / "T1.toml"), p), rtol=1e-9)
+    exp = load_experiment(DATA / "T1.toml")
+    np.testing.assert_allclose(cols["displacement_mm"], simulate(exp, p), rtol=1e-9)
     assert "mu=2.5" in meta["parameters"]
+    # the force follows the load the model applies: full from the first data time on (t = 3 s lies inside the first
+    # 6 s step, which carries the load), as in the data file -- not half of it, as a plain interpolation gave
+    np.testing.assert_allclose(cols["force_mN"][1:], exp.force_mN[1:], rtol=1e-6)
+    assert cols["force_mN"][0] == 0.0
 
 
 def test_simulate_prints(capsys):
