@@ -205,30 +205,26 @@ def test_marginal_gaussian_likelihood_matches_quadrature(prior, rss, n, box):
         return -0.5 * n * np.log(2 * np.pi * s**2) - rss / (2 * s**2) + np.log(dens(s))
 
     ref = max(log_integrand(np.clip(peak, lo, hi)), -1e300)
-    val, _ = integrate.quad(
-        lambda ls: np.exp(log_integrand(np.exp(ls)) - ref) * np.exp(ls),
-        np.log(lo),
-        np.log(hi),
-        points=[np.log(np.clip(peak, lo, hi))],
-        epsabs=0,
-        epsrel=1e-11,
-        limit=200,
-    )
+
+    def mass(upper, epsrel):  # integral from lo to upper, over log sigma, scaled by exp(-ref)
+        val, _ = integrate.quad(
+            lambda ls: np.exp(log_integrand(np.exp(ls)) - ref) * np.exp(ls),
+            np.log(lo),
+            np.log(upper),
+            points=[np.log(np.clip(peak, lo, upper))],
+            epsabs=0,
+            epsrel=epsrel,
+            limit=200,
+        )
+        return val
+
+    val = mass(hi, 1e-11)
     got = log_marginal_gaussian(np.array([rss]), n, lo, hi, prior)[0]
     assert got == pytest.approx(ref + np.log(val), abs=1e-8)
     draws = draw_sd(np.full(4000, rss), n, lo, hi, prior, rng=0)
 
     def cdf(s):
-        part, _ = integrate.quad(
-            lambda ls: np.exp(log_integrand(np.exp(ls)) - ref) * np.exp(ls),
-            np.log(lo),
-            np.log(s),
-            points=[np.log(np.clip(peak, lo, s))],
-            epsabs=0,
-            epsrel=1e-10,
-            limit=200,
-        )
-        return part / val
+        return mass(s, 1e-10) / val
 
     grid = np.quantile(draws, np.linspace(0.01, 0.99, 60))
     emp = np.searchsorted(np.sort(draws), grid, side="right") / draws.size
