@@ -42,6 +42,7 @@ __all__ = [
     "ess_walkers",
     "stuck_walkers",
     "ensembles_apart",
+    "ParameterChecks",
     "ConvergenceReport",
     "assess_convergence",
 ]
@@ -132,8 +133,23 @@ def ensembles_apart(draws, log_prob, *, threshold: float = 1.0) -> list[tuple[in
     return out
 
 
+class ParameterChecks:
+    """The per-parameter criteria of both engines' verdicts: R-hat below ``rhat_max``, bulk and tail ESS at least
+    ``ess_min``. Base of :class:`ConvergenceReport` and :class:`~bayestissue.inference.evidence.NestedReport`, which
+    carry ``rhat``, ``ess_bulk``, ``ess_tail``, ``rhat_max``, ``ess_min`` and ``time_s``."""
+
+    @property
+    def parameters_ok(self) -> np.ndarray:
+        """``(ndim,)`` bool: every per-parameter criterion met (a NaN R-hat or ESS fails)."""
+        return (self.rhat < self.rhat_max) & (self.ess_bulk >= self.ess_min) & (self.ess_tail >= self.ess_min)
+
+    def ess_per_second(self) -> float:
+        """Smallest bulk ESS divided by the wall time of the sampling."""
+        return float(np.min(self.ess_bulk) / self.time_s) if self.time_s > 0 else np.nan
+
+
 @dataclass(frozen=True)
-class ConvergenceReport:
+class ConvergenceReport(ParameterChecks):
     """Diagnostics of a :class:`~bayestissue.inference.sampling.PosteriorSample`."""
 
     names: tuple[str, ...]
@@ -154,12 +170,7 @@ class ConvergenceReport:
 
     @property
     def converged(self) -> bool:
-        return bool(
-            np.all(self.rhat < self.rhat_max)
-            and np.all(self.ess_bulk >= self.ess_min)
-            and np.all(self.ess_tail >= self.ess_min)
-            and np.all(self.length_ok)
-        )
+        return bool(np.all(self.parameters_ok) and np.all(self.length_ok))
 
     def verdict(self) -> str:
         """Plain-language verdict, one line per failed criterion."""
@@ -200,10 +211,6 @@ class ConvergenceReport:
         if n_stuck:
             head += f". {n_stuck} stuck walker(s) flagged (acceptance well below the median)"
         return head
-
-    def ess_per_second(self) -> float:
-        """Smallest bulk ESS divided by the wall time of the sampling."""
-        return float(np.min(self.ess_bulk) / self.time_s) if self.time_s > 0 else np.nan
 
 
 def assess_convergence(

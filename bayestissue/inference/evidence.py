@@ -43,7 +43,7 @@ import numpy as np
 from scipy.special import ndtri
 from scipy.stats import chi2
 
-from bayestissue.inference.diagnostics import rhat_ensembles
+from bayestissue.inference.diagnostics import ParameterChecks, rhat_ensembles
 
 __all__ = ["NestedReport", "assess_nested", "weighted_ess", "weighted_quantile"]
 
@@ -81,7 +81,7 @@ def weighted_ess(x, w) -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class NestedReport:
+class NestedReport(ParameterChecks):
     """Diagnostics of a :class:`~bayestissue.inference.sampling.NestedSample`."""
 
     names: tuple[str, ...]
@@ -132,9 +132,7 @@ class NestedReport:
             self.log_z.size >= self.min_runs
             and np.all(self.finished)
             and not np.any(self.short_of_peak)
-            and np.all(self.rhat < self.rhat_max)
-            and np.all(self.ess_bulk >= self.ess_min)
-            and np.all(self.ess_tail >= self.ess_min)
+            and np.all(self.parameters_ok)
             and self.evidence_ok
         )
 
@@ -174,10 +172,6 @@ class NestedReport:
                 f"needed): {evidence}"
             )
         return "NOT CONVERGED: " + "; ".join(lines)
-
-    def ess_per_second(self) -> float:
-        """Smallest bulk ESS divided by the wall time of the sampling."""
-        return float(np.min(self.ess_bulk) / self.time_s) if self.time_s > 0 else np.nan
 
 
 def assess_nested(

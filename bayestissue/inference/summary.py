@@ -55,7 +55,8 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
     problem : CalibrationProblem
     least_squares : LeastSquaresResult of the material parameters (the warm start).
     sample : PosteriorSample or None (least-squares columns only).
-    report : ConvergenceReport or None.
+    report : ConvergenceReport or NestedReport (both :class:`~bayestissue.inference.diagnostics.ParameterChecks`), or
+        None.
     references : mapping experiment -> {"paper": (11,), "generating": (11,), "noise_sd": float}.
 
     Returns
@@ -123,13 +124,8 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
                 flags[j].append("prior_dominated")
     if report is not None:
         cols.update(ess_bulk=report.ess_bulk, ess_tail=report.ess_tail, rhat=report.rhat)
-        for j in range(n):
-            if not (
-                report.rhat[j] < report.rhat_max
-                and report.ess_bulk[j] >= report.ess_min
-                and report.ess_tail[j] >= report.ess_min
-            ):
-                flags[j].append("not_converged")
+        for j in np.flatnonzero(~report.parameters_ok):
+            flags[j].append("not_converged")
         meta["convergence"] = report.verdict()
         meta["sampling_time_s"] = f"{report.time_s:.1f}"
         meta["ess_per_s_min"] = f"{report.ess_per_second():.2f}"
