@@ -9,6 +9,7 @@ import numpy as np
 
 __all__ = [
     "ValidationError",
+    "check_known_keys",
     "check_finite",
     "check_interval",
     "check_positive",
@@ -21,15 +22,35 @@ class ValidationError(ValueError):
     """Bad user input. The message names the field, the value received and what was expected."""
 
     def __init__(self, field: str, value, expected: str, hint: str | None = None):
-        self.field, self.value, self.expected = field, value, expected
+        if isinstance(value, np.generic):  # np.float64(1e+300) would print as such
+            value = value.item()
+        self.field, self.value, self.expected, self.hint = field, value, expected, hint
         msg = f"{field}: expected {expected}, got {value!r}"
         if hint:
             msg += f" ({hint})"
         super().__init__(msg)
 
+    def within(self, where: str) -> ValidationError:
+        """The same error with ``where`` (e.g. the file's name) before the field."""
+        return ValidationError(f"{where} {self.field}", self.value, self.expected, self.hint)
+
+
+def check_known_keys(field: str, mapping, known) -> None:
+    """Raise for the first key of ``mapping`` not in ``known``, naming the nearest known key (a typo's fix)."""
+    import difflib
+
+    known = list(known)
+    for key in mapping:
+        if key not in known:
+            near = difflib.get_close_matches(str(key), known, n=1, cutoff=0.6)
+            hint = f"did you mean {near[0]!r}?" if near else None
+            raise ValidationError(field, key, f"one of {known}", hint)
+
 
 def check_finite(field: str, value) -> float:
-    """Return ``value`` as float; raise unless it is a finite real number."""
+    """Return ``value`` as float; raise unless it is a finite real number (``True`` is not the number 1 here)."""
+    if isinstance(value, bool | np.bool_):
+        raise ValidationError(field, value, "a finite number")
     try:
         x = float(value)
     except (TypeError, ValueError):

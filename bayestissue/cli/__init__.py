@@ -2,7 +2,8 @@
 
 Each sub-command lives in its own module ``bayestissue/cli/<name>.py`` exposing ``register(subparsers)``,
 which adds its parser and sets ``func(args) -> int``. This is the only layer that prints. Bad input
-(``ValueError``, ``FileNotFoundError``) is reported as one line on stderr and exit status 2, never a traceback.
+(``ValueError``, ``FileNotFoundError``) is reported as one line on stderr and exit status 2, never a traceback;
+the output paths a command declares are checked before it runs. Any other ``OSError`` is one line and status 1.
 """
 
 from __future__ import annotations
@@ -36,11 +37,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _check_outputs(args) -> None:
+    """The output paths a command declared (``set_defaults(outputs={label: (dest, "file" | "dir")})``), checked
+    before it runs."""
+    from bayestissue.io.paths import check_output_dir, check_output_file
+
+    for label, (dest, kind) in getattr(args, "outputs", {}).items():
+        value = getattr(args, dest, None)
+        if value is not None:
+            (check_output_file if kind == "file" else check_output_dir)(label, value)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(message)s")
     try:
+        _check_outputs(args)
         return int(args.func(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`
         sys.stderr.close()
@@ -49,6 +62,10 @@ def main(argv: list[str] | None = None) -> int:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"bayestissue {args.command}: error: {msg}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a path the checks could not foresee (disk full, permissions changed while running)
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"bayestissue {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -23,7 +23,13 @@ def register(subparsers) -> None:
     p.add_argument("experiments", nargs="+", metavar="EXPERIMENT", help="experiment files (TOML)")
     p.add_argument("--config", help="calibration configuration (TOML; every key: docs/config.md)")
     p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--resume", action="store_true", help="continue the checkpointed sampler runs")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run checkpointed in --out (refused if its inputs, configuration or code differ)",
+    )
+    mode.add_argument("--overwrite", action="store_true", help="replace the run in a non-empty --out")
     p.add_argument("--seed", type=int, help="master seed (overrides the configuration)")
     p.add_argument(
         "--engine",
@@ -34,7 +40,7 @@ def register(subparsers) -> None:
     p.add_argument("--no-sample", action="store_true", help="least squares only")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, outputs={"--out": ("out", "dir")})
 
 
 QUICK_SAMPLER = {
@@ -46,10 +52,10 @@ QUICK_SAMPLER = {
 
 
 def run(args) -> int:
-    from bayestissue.inference.summary import table_markdown
     from bayestissue.io.results import provenance
     from bayestissue.mechanics import load_experiment
     from bayestissue.workflows import load_config, run_calibration
+    from bayestissue.workflows.run_directory import open_run_directory, run_manifest
 
     t0 = time.perf_counter()
     over = {}
@@ -63,26 +69,54 @@ def run(args) -> int:
         over.update(n_starts=2, ls_max_nfev=200, sampler=QUICK_SAMPLER)
     config = load_config(args.config, **over)
     experiments = [load_experiment(p) for p in args.experiments]
-    data_paths = []
-    for p, e in zip(args.experiments, experiments, strict=True):
-        data_paths.append(Path(p))
-        if e.source and Path(str(e.source)).is_file() and Path(str(e.source)) != Path(p):
-            data_paths.append(Path(str(e.source)))
-        csv = Path(p).with_suffix(".csv")
-        if csv.is_file() and csv not in data_paths:
-            data_paths.append(csv)
+    data_paths = [Path(p) for e in experiments for p in (e.source, e.data_file) if p is not None]
     prov = provenance(seed=config.seed, config_path=args.config, data_paths=data_paths)
     out = Path(args.out)
-    bar = None
-    progress = None
-    if config.sample and not args.no_progress and config.engine == "nested":
-        from tqdm import tqdm
+    progress, close_bar = _progress(config, enabled=config.sample and not args.no_progress)
+    names = ", ".join(e.name for e in experiments)
+    stage = (
+        f"{config.nested.n_runs} nested runs"
+        if config.engine == "nested"
+        else f"{config.sampler.n_ensembles} ensembles"
+    )
+    manifest = run_manifest(config, experiments, config_path=args.config)
+    n_runs = config.nested.n_runs if config.engine == "nested" else config.sampler.n_ensembles
+    with open_run_directory(out, manifest, resume=args.resume, overwrite=args.overwrite, n_runs=n_runs) as run_dir:
+        for note in run_dir.notes:
+            print(note)
+        if args.resume:
+            print(_resume_line(run_dir, config.engine))
+        print(f"calibrating on {names}: least squares, then {stage}")
+        try:
+            outcome = run_calibration(
+                experiments, config, out_dir=out, resume=args.resume, progress=progress, provenance=prov
+            )
+        finally:
+            close_bar()
+        _report(outcome, config, names, out, args.no_figures)
+    print(f"wrote {out}/ in {time.perf_counter() - t0:.1f} s")
+    return 0
 
+
+def _progress(config, *, enabled: bool):
+    """The sampling progress callback (a tqdm bar on stderr, created on the first report, after the input checks)
+    and the function that closes the bar; ``(None, no-op)`` when disabled."""
+    bar = None
+
+    def close():
+        if bar is not None:
+            bar.close()
+
+    if not enabled:
+        return None, close
+    from tqdm import tqdm
+
+    if config.engine == "nested":
         state = {}
 
         def progress(k, n_like, n_eff, explored, log_z):
             nonlocal bar
-            if bar is None:  # created on the first report, after the input checks
+            if bar is None:
                 bar = tqdm(unit="eval", desc="nested sampling")
             state[k] = (n_like, n_eff, explored)
             bar.update(sum(s[0] for s in state.values()) - bar.n)
@@ -91,33 +125,32 @@ def run(args) -> int:
                 for j, s in sorted(state.items())
             )
             bar.set_postfix_str(phases)
-    elif config.sample and not args.no_progress:
-        from tqdm import tqdm
 
-        opts = config.sampler
-        done = {}
+        return progress, close
+    opts = config.sampler
+    done = {}
 
-        def progress(k, n, nmax):
-            nonlocal bar
-            if bar is None:  # created on the first report, after the input checks
-                bar = tqdm(total=opts.n_ensembles * opts.max_steps, unit="step", desc="sampling")
-            done[k] = n
-            bar.update(sum(done.values()) - bar.n)
+    def progress(k, n, nmax):
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=opts.n_ensembles * opts.max_steps, unit="step", desc="sampling")
+        done[k] = n
+        bar.update(sum(done.values()) - bar.n)
 
-    names = ", ".join(e.name for e in experiments)
-    stage = (
-        f"{config.nested.n_runs} nested runs"
-        if config.engine == "nested"
-        else f"{config.sampler.n_ensembles} ensembles"
-    )
-    print(f"calibrating on {names}: least squares, then {stage}")
-    try:
-        outcome = run_calibration(
-            experiments, config, out_dir=out, resume=args.resume, progress=progress, provenance=prov
-        )
-    finally:
-        if bar is not None:
-            bar.close()
+    return progress, close
+
+
+def _resume_line(run_dir, engine: str) -> str:
+    what = "run" if engine == "nested" else "ensemble"
+    if not any(run_dir.resumed):
+        return f"resuming {run_dir.path}: nothing was checkpointed yet, sampling starts at 0 {run_dir.unit}"
+    at = ", ".join(f"{what} {k} at {n} {run_dir.unit}" for k, n in enumerate(run_dir.resumed))
+    return f"resuming {run_dir.path}: {at}"
+
+
+def _report(outcome, config, names, out, no_figures) -> None:
+    from bayestissue.inference.summary import table_markdown
+
     pf = outcome.paper_fit
     print(
         f"paper's least squares: cost {pf.cost:.5g}, {pf.nit} iterations, {pf.time_s:.1f} s, "
@@ -139,7 +172,7 @@ def run(args) -> int:
             f"({rep.ess_per_second():.2f} ESS/s), failed forward solves: "
             f"{outcome.sample.n_failed} of {outcome.sample.n_evaluations}"
         )
-    if not args.no_figures:
+    if not no_figures:
         import matplotlib
 
         matplotlib.use("Agg")
@@ -150,5 +183,3 @@ def run(args) -> int:
         for name, fig in calibration_figures(outcome).items():
             fig.savefig(out / f"{name}.png", dpi=110)
             plt.close(fig)
-    print(f"wrote {out}/ in {time.perf_counter() - t0:.1f} s")
-    return 0

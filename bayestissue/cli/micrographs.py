@@ -61,7 +61,8 @@ def register(subparsers) -> None:
     )
     sub = p.add_subparsers(dest="micrographs_command", required=True)
     g = sub.add_parser("phantom", help="write a synthetic serial-section stack and its truth")
-    g.add_argument("outdir")
+    g.add_argument("outdir", help="folder for the sections and truth.json (created)")
+    g.set_defaults(outputs={"OUTDIR": ("outdir", "dir")})
     g.add_argument("--seed", type=int, default=1)
     g.add_argument("--extent-um", type=float, nargs=3, default=(60.0, 100.0, 100.0),
                    metavar=("Z", "Y", "X"))  # fmt: skip
@@ -75,6 +76,7 @@ def register(subparsers) -> None:
     a.add_argument("--pixel-size-um", type=float, required=True)
     a.add_argument("--section-thickness-um", type=float, required=True)
     a.add_argument("--out", required=True, help="output folder")
+    a.set_defaults(outputs={"--out": ("out", "dir")})
     a.add_argument("--grid-spacing-um", type=float, default=10.0)
     a.add_argument("--period", type=int, default=2, help="count every k-th section")
     a.add_argument("--method", choices=("deconvolution", "lab"), default="deconvolution")

@@ -30,7 +30,7 @@ def register(subparsers) -> None:
         help="base parameter set from the paper's Table 1 (default: initial)",
     )
     p.add_argument("--out", help="write a CSV (time_s, displacement_mm, force_mN) instead of printing")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, outputs={"--out": ("out", "file")})
 
 
 def run(args) -> int:

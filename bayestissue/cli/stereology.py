@@ -49,6 +49,7 @@ def register(subparsers) -> None:
     r.add_argument("--top", type=int, default=3)
     r.add_argument("--merge-deg", type=float, default=20.0, help="0 = the paper's literal top cells")
     r.add_argument("--out", default=None, help="write the table as CSV")
+    r.set_defaults(outputs={"--out": ("out", "file")})
 
     b = sub.add_parser("replicates", help="joint bootstrap replicate table for the mechanics")
     b.add_argument("counts")
@@ -65,6 +66,7 @@ def register(subparsers) -> None:
     )
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--out", required=True, help="output CSV")
+    b.set_defaults(outputs={"--out": ("out", "file")})
     p.set_defaults(func=run)
 
 

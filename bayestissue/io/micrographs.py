@@ -37,6 +37,16 @@ def _to_uint8(img: np.ndarray, name: str) -> np.ndarray:
     raise ValidationError(name, f"dtype {a.dtype}", "8-bit, 16-bit or [0, 1] float images")
 
 
+def _read_image(path: Path) -> np.ndarray:
+    """One image file's pixels; a file that is not an image (whatever its suffix says) is refused by name."""
+    try:
+        return tifffile.imread(path) if path.suffix.lower() in (".tif", ".tiff") else iio.imread(path)
+    except Exception as exc:  # the readers raise OSError, ValueError, tifffile's own errors and more
+        raise ValidationError(
+            f"image {path}", f"unreadable ({type(exc).__name__})", f"a readable {path.suffix.lstrip('.').upper()} image"
+        ) from None
+
+
 def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:
     """Read a stack of sections from a folder of PNG/TIFF files or a multi-page TIFF.
 
@@ -63,11 +73,10 @@ def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:
             raise ValidationError("source", str(src), f"a folder with {'/'.join(IMAGE_SUFFIXES)} section images")
         imgs, names = [], []
         for p in files:
-            a = tifffile.imread(p) if p.suffix.lower() in (".tif", ".tiff") else iio.imread(p)
-            imgs.append(_to_uint8(a, p.name))
+            imgs.append(_to_uint8(_read_image(p), p.name))
             names.append(p.name)
     elif src.suffix.lower() in (".tif", ".tiff"):
-        a = tifffile.imread(src)
+        a = _read_image(src)
         if a.ndim == 2 or (a.ndim == 3 and a.shape[-1] in (3, 4) and a.shape[0] > 4):
             a = a[None]  # a single page
         imgs = [_to_uint8(x, f"{src.name} page {k}") for k, x in enumerate(a)]

@@ -19,6 +19,7 @@ from bayestissue.io.toml_files import read_toml
 
 __all__ = [
     "file_sha256",
+    "package_sha256",
     "read_config",
     "provenance",
     "write_inference_data",
@@ -32,6 +33,16 @@ def file_sha256(path: str | Path) -> str:
     if not path.is_file():
         raise FileNotFoundError(f"file {str(path)!r} does not exist")
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def package_sha256(package: str | Path | None = None) -> str:
+    """Hex SHA-256 over every source file of the package (relative path and bytes, in sorted order): changes with
+    any change of the code, and only then."""
+    package = Path(__file__).resolve().parents[1] if package is None else Path(package)
+    h = hashlib.sha256()
+    for f in sorted(package.rglob("*.py")):
+        h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()
 
 
 def read_config(path: str | Path | None) -> dict:

@@ -68,6 +68,9 @@ REPLICATE_COLUMNS = (
     "phi_fibre3",
     *(f"v{k}_{c}" for k in (1, 2, 3) for c in "xyz"),
 )
+#: The largest point count of one component on one section: a grid of 10^7 points (a 3162 x 3162 grid) is far
+#: beyond any counted section; larger values are typing or export errors (1e300 would otherwise give V_V = 1).
+MAX_POINTS = 1e7
 _SEGMENT_COLUMNS = ("cell", "x0_um", "y0_um", "z0_um", "x1_um", "y1_um", "z1_um")
 
 
@@ -80,7 +83,7 @@ def read_point_counts(path: str | Path) -> dict:
     the ``<name>_points`` columns), ``excluded`` (tuple), ``grid_spacing_um`` (float or None),
     ``block`` ((n,) or None) and ``meta`` (the comment lines).
     """
-    cols, meta = read_table(path, required=("section",))
+    cols, meta = read_table(path, required=("section",), numeric=lambda c: c == "section" or c.endswith("_points"))
     names = [c for c in cols if c.endswith("_points")]
     if not names:
         raise ValidationError(
@@ -88,9 +91,24 @@ def read_point_counts(path: str | Path) -> dict:
             list(cols),
             "one '<component>_points' column per component",
         )
-    for c in names:
-        if cols[c].dtype.kind not in "fi":
-            raise ValidationError(f"column {c}", cols[c][:3].tolist(), "numeric point counts")
+    name = Path(path).name
+    section = cols["section"]
+    bad = np.flatnonzero((section != np.round(section)) | (section < 0))
+    if bad.size:
+        raise ValidationError(f"{name} data row {bad[0] + 1} column section", section[bad[0]], "a section number >= 0")
+    seen, first = np.unique(section, return_index=True)
+    if seen.size < section.size:
+        dup = np.setdiff1d(np.arange(section.size), first)[0]
+        raise ValidationError(f"{name} data row {dup + 1} column section", section[dup], "each section once")
+    counts = np.stack([cols[c] for c in names], axis=1)
+    bad = np.argwhere((counts != np.round(counts)) | (counts < 0) | (counts > MAX_POINTS))
+    if bad.size:
+        i, j = bad[0]
+        raise ValidationError(
+            f"{name} data row {i + 1} column {names[j]}",
+            counts[i, j],
+            f"a whole number of points in [0, {MAX_POINTS:g}]",
+        )
     components = tuple(c[: -len("_points")] for c in names)
     if "excluded" in meta:
         excluded = tuple(s.strip() for s in meta["excluded"].split(",") if s.strip())
@@ -103,7 +121,7 @@ def read_point_counts(path: str | Path) -> dict:
         "nugget_shape_factor": float(sf) if sf else None,
         "nugget_profiles_per_section": float(pp) if pp else None,
         "section": cols["section"].astype(int),
-        "counts": np.stack([cols[c] for c in names], axis=1),
+        "counts": counts,
         "components": components,
         "excluded": excluded,
         "grid_spacing_um": float(gs) if gs else None,
@@ -137,10 +155,7 @@ def read_line_system(path: str | Path) -> dict:
     dict with ``start`` (n, 3), ``end`` (n, 3) in um, ``cell`` (n,), ``volume_um3`` (float or None),
     ``sidecar`` (dict) and ``meta`` (CSV comment lines).
     """
-    cols, meta = read_table(path, required=_SEGMENT_COLUMNS)
-    for c in _SEGMENT_COLUMNS[1:]:
-        if cols[c].dtype.kind != "f":
-            raise ValidationError(f"column {c}", cols[c][:3].tolist(), "coordinates in um")
+    cols, meta = read_table(path, required=_SEGMENT_COLUMNS, numeric=_SEGMENT_COLUMNS[1:])
     side = {}
     sp = sidecar_path(path)
     if sp.is_file():

@@ -47,10 +47,17 @@ import numpy as np
 from bayestissue._validation import ValidationError, check_increasing, check_positive
 from bayestissue.io.tables import read_table
 from bayestissue.io.toml_files import read_toml
+from bayestissue.mechanics.experiment_schema import check_experiment_document
 from bayestissue.mechanics.protocols import protocol_from_mapping
 from bayestissue.mechanics.tissue import PAPER_TISSUE, TissueConfig
 
-__all__ = ["Experiment", "load_experiment"]
+__all__ = ["Experiment", "load_experiment", "MIN_STEPS", "MAX_STEPS"]
+
+#: The simulation grid's range of steps over the data's duration: with one step the interpolated curve is a straight
+#: line from the first step to the last data time (dt_s = 1e9 gave a flat curve); above MAX_STEPS the batched forward
+#: stores (n_steps + 1) x batch states and the solve takes minutes per curve (dt_s = 1e-9 asked for 8.7 TiB).
+MIN_STEPS = 2
+MAX_STEPS = 1_000_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +81,7 @@ class Experiment:
         Fibre directions, volume fractions, bulk modulus, slack strains (default: the paper's).
     noise_sd_mm : float or None
         Measurement noise sd where known (synthetic replicas record it).
+    source, data_file : the experiment file and the data file it was read from (the run's provenance hashes both).
     """
 
     name: str
@@ -88,6 +96,7 @@ class Experiment:
     synthetic: bool = False
     description: str = ""
     source: str | None = None
+    data_file: str | None = None
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -102,6 +111,15 @@ class Experiment:
             raise ValidationError("time_s", float(t[0]), "times >= 0 (t = 0 is the unloaded state)")
         t.setflags(write=False)
         object.__setattr__(self, "time_s", t)
+        span = float(t[-1])
+        if span > 0 and not (span / MAX_STEPS <= dt <= span / MIN_STEPS):
+            raise ValidationError(
+                "simulation.dt_s",
+                dt,
+                f"a step in [{span / MAX_STEPS:.3g}, {span / MIN_STEPS:.3g}] s for the data's {span:g} s "
+                f"({MIN_STEPS} to {MAX_STEPS:.0e} steps)",
+                "a smaller step cannot be stored, a larger one cannot follow the test",
+            )
         for name in ("displacement_mm", "force_mN"):
             v = getattr(self, name)
             if v is None:
@@ -152,16 +170,16 @@ class Experiment:
         return i, w
 
 
-def _table(doc: dict, key: str, where: str) -> dict:
+def _table(doc: dict, key: str) -> dict:
     val = doc.get(key)
     if not isinstance(val, dict):
-        raise ValidationError(f"[{key}]", "missing" if val is None else val, f"a [{key}] table", where)
+        raise ValidationError(f"[{key}]", "missing" if val is None else val, f"a [{key}] table")
     return val
 
 
-def _get(table: dict, key: str, section: str, where: str):
+def _get(table: dict, key: str, section: str):
     if key not in table:
-        raise ValidationError(f"{section}.{key}", "missing", f"a value for {key!r}", where)
+        raise ValidationError(f"{section}.{key}", "missing", f"a value for {key!r}")
     return table[key]
 
 
@@ -170,26 +188,36 @@ def load_experiment(path: str | Path) -> Experiment:
 
     Raises
     ------
-    FileNotFoundError if either file is missing; ValidationError (a ValueError) naming the field, the value and
-    what was expected for any bad or missing entry.
+    FileNotFoundError if either file is missing; ValidationError (a ValueError) naming the file, the field, the
+    value and what was expected for any bad or missing entry (the data file's own errors name the data file, its
+    line and column).
     """
     path = Path(path)
     doc = read_toml(path, "experiment")
-    where = f"in {path.name}"
-    spec = _table(doc, "specimen", where)
-    dims = tuple(_get(spec, f"length_{ax}_mm", "specimen", where) for ax in "xyz")
-    sim = _table(doc, "simulation", where)
-    dt = _get(sim, "dt_s", "simulation", where)
-    data = _table(doc, "data", where)
-    columns, meta = {}, {}
-    if "file" in data:
-        columns, meta = read_table(path.parent / data["file"], required=("time_s",))
+    check_experiment_document(doc, path.name)
+    data = doc.get("data")
+    columns, meta, data_file = {}, {}, None
+    if isinstance(data, dict) and "file" in data:
+        data_file = path.parent / data["file"]
+        columns, meta = read_table(data_file, required=("time_s",))
+    try:
+        return _build(doc, path, columns, meta, data_file)
+    except ValidationError as exc:
+        raise exc.within(path.name) from None
+
+
+def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | None) -> Experiment:
+    spec = _table(doc, "specimen")
+    dims = tuple(_get(spec, f"length_{ax}_mm", "specimen") for ax in "xyz")
+    dt = _get(_table(doc, "simulation"), "dt_s", "simulation")
+    data = _table(doc, "data")
+    if data_file is not None:
         time_s = columns["time_s"]
     else:
-        duration = check_positive("data.duration_s", _get(data, "duration_s", "data", where))
-        step = check_positive("data.step_s", _get(data, "step_s", "data", where))
+        duration = check_positive("data.duration_s", _get(data, "duration_s", "data"))
+        step = check_positive("data.step_s", _get(data, "step_s", "data"))
         time_s = np.arange(0.0, duration + 0.5 * step, step)
-    protocol = protocol_from_mapping(_table(doc, "protocol", where), columns=columns)
+    protocol = protocol_from_mapping(_table(doc, "protocol"), columns=columns)
     tissue = PAPER_TISSUE
     if "tissue" in doc:
         t = doc["tissue"]
@@ -201,6 +229,11 @@ def load_experiment(path: str | Path) -> Experiment:
             eps0=t.get("eps0"),
         )
     noise = meta.get("noise_sd_mm")
+    if noise is not None:
+        try:
+            noise = float(noise)
+        except ValueError:
+            raise ValidationError(f"{data_file.name} header noise_sd_mm", noise, "a number > 0") from None
     return Experiment(
         name=str(doc.get("name", path.stem)),
         specimen_mm=dims,
@@ -210,9 +243,10 @@ def load_experiment(path: str | Path) -> Experiment:
         displacement_mm=columns.get("displacement_mm"),
         force_mN=columns.get("force_mN"),
         tissue=tissue,
-        noise_sd_mm=float(noise) if noise is not None else None,
+        noise_sd_mm=noise,
         synthetic=bool(doc.get("synthetic", False)),
         description=str(doc.get("description", "")),
         source=str(path),
+        data_file=None if data_file is None else str(data_file),
         meta=meta,
     )

@@ -159,11 +159,15 @@ def parse_parameters(text: str, names: tuple[str, ...], *, base: np.ndarray | No
             raise ValidationError("params", text, f"values for every parameter {names}")
         base = PAPER_PARAMETERS["initial"]
     values = np.array(base, dtype=float)
+    given = set()
     for item in filter(None, (s.strip() for s in text.split(","))):
         key, sep, val = item.partition("=")
         key = key.strip()
         if not sep:
             raise ValidationError("--params", item, "name=value pairs separated by commas")
+        if key in given:
+            raise ValidationError("--params", text, "each parameter once", f"{key} given twice")
+        given.add(key)
         if key not in names:
             raise ValidationError("--params", key, f"one of the parameter names {', '.join(names)}")
         try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -87,15 +88,18 @@ class PointCounts:
             kw["shape_factor"] = d["nugget_shape_factor"]
         if d["nugget_profiles_per_section"] is not None:
             kw["profiles_per_section"] = d["nugget_profiles_per_section"]
-        return cls(
-            d["section"],
-            d["counts"],
-            d["components"],
-            d["excluded"],
-            grid_spacing_um=d["grid_spacing_um"],
-            block=d["block"],
-            **kw,
-        )
+        try:
+            return cls(
+                d["section"],
+                d["counts"],
+                d["components"],
+                d["excluded"],
+                grid_spacing_um=d["grid_spacing_um"],
+                block=d["block"],
+                **kw,
+            )
+        except ValidationError as exc:
+            raise exc.within(Path(path).name) from None
 
     @property
     def reference_components(self) -> tuple[str, ...]:
@@ -138,10 +142,10 @@ class PointCounts:
         and nugget, :func:`fraction_covariance`); ``q_hat``; ``CE_classic`` (independent units,
         Cochran); ``CE_sum_m0`` / ``CE_sum_m1`` (of the component's point sum alone).
         """
+        V = np.array(list(self.volume_fractions().values()))  # refuses an empty reference space
         Q = self.reference_counts()
         P = Q.sum(axis=1)
         kw = self.ce_kwargs()
-        V = Q.sum(axis=0) / P.sum()
         ce = {}
         for key, sm in (("CE_m0", 0), ("CE_m1", 1), ("CE_q_hat", "q_hat")):
             if sm == "q_hat" and len(P) < 5:

@@ -11,7 +11,6 @@ into every key, so any change to the package starts a fresh set of keys.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,11 +72,9 @@ POSTERIOR_RUNS = {"T1": "T1_mirror", "T2": "T2_mirror", "joint": "joint_mirror"}
 
 def code_salt(package: Path | None = None) -> str:
     """Hash of every source file of the package: the cache key of a task then changes with the code."""
-    package = Path(__file__).resolve().parents[1] if package is None else Path(package)
-    h = hashlib.sha256()
-    for f in sorted(package.rglob("*.py")):
-        h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
-    return "code-" + h.hexdigest()[:16]
+    from bayestissue.io.results import package_sha256
+
+    return "code-" + package_sha256(package)[:16]
 
 
 #: mixed into every cache key (see code_salt)

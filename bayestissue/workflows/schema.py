@@ -12,7 +12,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from bayestissue._validation import ValidationError
+from bayestissue._validation import ValidationError, check_known_keys
 from bayestissue.inference.coordinates import COORDINATES
 from bayestissue.inference.likelihood import NOISE_MODELS
 from bayestissue.inference.sampling.options import MOVES, PROPOSALS
@@ -195,14 +195,11 @@ def check_mapping(cfg: Mapping, *, where: str = "configuration") -> None:
         are named with the known ones.
     """
     for section, table in cfg.items():
-        if section not in SCHEMA:
-            raise ValidationError(f"{where} section", section, f"one of {list(SCHEMA)}")
+        check_known_keys(f"{where} section", {section: None}, SCHEMA)
         if not isinstance(table, Mapping):
             raise ValidationError(f"{where} [{section}]", table, "a table of key = value entries")
         known = SCHEMA[section]
-        bad = sorted(set(table) - set(known))
-        if bad:
-            raise ValidationError(f"{where} [{section}] keys", bad, f"keys among {sorted(known)}")
+        check_known_keys(f"{where} [{section}] key", table, known)
         for name, value in table.items():
             if not _valid(value, known[name]):
                 raise ValidationError(f"{where} [{section}] {name}", value, _expected(known[name]))

@@ -32,7 +32,7 @@ def test_fit_two_parameters_writes_results(tmp_path, capsys):
     assert code == 0
     text = capsys.readouterr().out
     assert "paper's least squares" in text and "NOT CONVERGED" in text  # a 300-step smoke run
-    cols, meta = read_table(out / "summary.csv", required=("parameter", "ls_estimate", "median"))
+    cols, meta = read_table(out / "summary.csv", numeric=False, required=("parameter", "ls_estimate", "median"))
     assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
     assert "ginf1=125" in meta["parameters_fixed"]
     idata = read_inference_data(out / "posterior.nc")
@@ -72,7 +72,7 @@ def test_fit_nested_engine_writes_evidence_weights_and_figures(tmp_path, capsys)
     for name in ("corner", "nested_runs", "predictive_T2"):
         assert (out / f"{name}.png").stat().st_size > 10_000
     assert not (out / "traces.png").exists()
-    cols, _ = read_table(out / "summary.csv", required=("parameter", "median", "rhat", "ess_bulk"))
+    cols, _ = read_table(out / "summary.csv", numeric=False, required=("parameter", "median", "rhat", "ess_bulk"))
     assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
 
 
@@ -114,7 +114,10 @@ def test_fit_quick_all_parameters_with_figures_and_resume(tmp_path):
         ("[parameters]\ninitial = { mu = 5000.0 }\n", "mu initial/fixed value: expected a value"),
         ('[parameters]\nsampled = ["nu"]\n', "sampled parameter names: expected names among"),
         ('[likelihood]\nnoise = "cauchy"\n', r"cfg.toml \[likelihood\] noise: expected one of"),
-        ("[sampler]\nwalkers = 3\n", r"cfg.toml \[sampler\] keys: expected keys among"),
+        (
+            "[sampler]\nwalkers = 3\n",
+            r"cfg.toml \[sampler\] key: expected one of .*got 'walkers' \(did you mean 'n_walkers'\?\)",
+        ),
         # typed values (issue 19): strings for numbers, booleans for counts, fractions for seeds, ranges
         ('[sampler]\ntau_factor = "50"\n', r"\[sampler\] tau_factor: expected a number > 0, got '50'"),
         ('[sampler]\nsample = "false"\n', r"\[sampler\] sample: expected true or false, got 'false'"),
@@ -138,6 +141,7 @@ def test_fit_bad_config_exits_2(tmp_path, capsys, config, match):
     import re
 
     assert re.search(match, err), err
+    assert not (tmp_path / "o").exists()  # refused input leaves no run directory behind
 
 
 def test_fit_bad_experiment_files_exit_2(tmp_path, capsys):

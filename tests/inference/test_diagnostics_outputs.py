@@ -156,7 +156,7 @@ def test_config_errors(tmp_path):
         load_config(unknown)
     typo = tmp_path / "typo.toml"
     typo.write_text("[sampler]\nmax_step = 10\n")
-    with pytest.raises(ValueError, match=r"configuration typo.toml \[sampler\] keys: expected keys among"):
+    with pytest.raises(ValueError, match=r"configuration typo.toml \[sampler\] key: expected one of \['seed'"):
         load_config(typo)
 
 

@@ -111,13 +111,13 @@ def test_bad_tissue(t1, tissue, match):
     [
         (
             "6,nan,100",
-            r"displacement_mm: expected finite values, got 'nan at row 2 \(time 6.0 s\)'",
+            r"T1.csv line \d+ column displacement_mm: expected a finite number \(decimal point\), got 'nan'",
         ),
         (
             "2,1.1,100",
             r"time_s: expected strictly increasing values, got '3.0 then 2.0 at rows 1-2'",
         ),
-        ("nan,1.1,100", r"time_s: expected finite values, got 'nan at row 2'"),
+        ("nan,1.1,100", r"T1.csv line \d+ column time_s: expected a finite number \(decimal point\), got 'nan'"),
     ],
 )
 def test_bad_data_columns(t1, row, match):

@@ -90,11 +90,15 @@ def test_library_errors(call, match):
 def test_file_errors(tmp_path):
     p = tmp_path / "c.csv"
     p.write_text("section,smc_points,ecm_points\n0,a,2\n6,b,4\n")
-    with pytest.raises(ValidationError, match="numeric point counts"):
+    with pytest.raises(
+        ValidationError, match=r"c.csv line 2 column smc_points: expected a finite number \(decimal point\), got 'a'"
+    ):
         read_point_counts(p)
     q = tmp_path / "l.csv"
     q.write_text("cell,x0_um,y0_um,z0_um,x1_um,y1_um,z1_um\n1,a,0,0,1,1,1\n")
-    with pytest.raises(ValidationError, match="coordinates in um"):
+    with pytest.raises(
+        ValidationError, match=r"l.csv line 2 column x0_um: expected a finite number \(decimal point\), got 'a'"
+    ):
         read_line_system(q)
     cols = ["replicate", "phi_smc", "phi_ecm", "phi_matrix", "phi_fibre1", "phi_fibre2", "phi_fibre3"]
     cols += [f"v{k}_{c}" for k in (1, 2, 3) for c in "xyz"]

@@ -112,7 +112,9 @@ def test_bad_values_are_named_with_file_section_and_key(section, key, value, exp
 def test_unknown_sections_and_keys_are_refused_by_name():
     with pytest.raises(ValidationError, match=r"configuration section: expected one of \['parameters'"):
         check_mapping({"mcmc": {}})
-    with pytest.raises(ValidationError, match=r"\[sampler\] keys: expected keys among .*got \['walkers'\]"):
+    with pytest.raises(
+        ValidationError, match=r"\[sampler\] key: expected one of .*got 'walkers' \(did you mean 'n_walkers'\?\)"
+    ):
         check_mapping({"sampler": {"walkers": 3}})
     with pytest.raises(ValidationError, match=r"\[output\]: expected a table of key = value entries"):
         check_mapping({"output": 3})
