@@ -37,14 +37,29 @@ def _to_uint8(img: np.ndarray, name: str) -> np.ndarray:
     raise ValidationError(name, f"dtype {a.dtype}", "8-bit, 16-bit or [0, 1] float images")
 
 
+#: The first bytes of each accepted format (a file whose bytes do not start so is not that image, whatever its suffix).
+_SIGNATURES = {
+    ".png": (b"\x89PNG\r\n\x1a\n",),
+    ".tif": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+    ".tiff": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+}
+
+
 def _read_image(path: Path) -> np.ndarray:
-    """One image file's pixels; a file that is not an image (whatever its suffix says) is refused by name."""
+    """One image file's pixels; a file that is not an image of its suffix's format is refused by name (checked by
+    its signature first: imageio would otherwise try every plugin on it and leave files open)."""
+    kind = path.suffix.lower()
+    with path.open("rb") as fh:
+        head = fh.read(8)
+    expected = f"a readable {kind.lstrip('.').upper()} image"
+    if not head.startswith(_SIGNATURES.get(kind, (b"",))):
+        raise ValidationError(f"image {path}", f"a file starting {head[:4]!r}", expected)
     try:
-        return tifffile.imread(path) if path.suffix.lower() in (".tif", ".tiff") else iio.imread(path)
-    except Exception as exc:  # the readers raise OSError, ValueError, tifffile's own errors and more
-        raise ValidationError(
-            f"image {path}", f"unreadable ({type(exc).__name__})", f"a readable {path.suffix.lstrip('.').upper()} image"
-        ) from None
+        if kind in (".tif", ".tiff"):
+            return tifffile.imread(path)
+        return iio.imread(path, plugin="pillow")
+    except Exception as exc:  # a damaged file: the readers raise OSError, ValueError, their own errors and more
+        raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", expected) from None
 
 
 def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:

@@ -40,9 +40,9 @@ __all__ = [
 ]
 
 
-def _check_n(n) -> int:
+def _check_n(n, field: str = "n", meaning: str = "parallels = meridians") -> int:
     if isinstance(n, bool) or not float(n).is_integer() or int(n) < 1:
-        raise ValidationError("n", n, "an integer >= 1 (parallels = meridians)")
+        raise ValidationError(field, n, f"an integer >= 1 ({meaning})")
     return int(n)
 
 
@@ -141,7 +141,7 @@ def preferential_directions(rose: EqualAreaRose, *, k: int = 3, merge_deg: float
     and ``vector`` (3,) of the principal axis.
     """
     check_interval("merge_deg", merge_deg, 0.0, 90.0)
-    k = _check_n(k)
+    k = _check_n(k, "k (--top)", "directions to report")
     n = rose.n
     order = np.argsort(-rose.lengths, axis=None, kind="stable")
     caz, cel = rose.cell_centres()

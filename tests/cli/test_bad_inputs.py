@@ -1,0 +1,173 @@
+"""Bad input, class by class (issue 19): every case gets one line on stderr naming the file, the field (or line and
+column), the value and what was expected, exit status 2 and no traceback, before any expensive work."""
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+from bayestissue.cli import main
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
+@pytest.fixture
+def t1(tmp_path):
+    shutil.copy(DATA / "T1.toml", tmp_path / "T1.toml")
+    shutil.copy(DATA / "T1.csv", tmp_path / "T1.csv")
+    return tmp_path
+
+
+def _refused(capsys, argv, pattern):
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert re.search(pattern, err), err
+
+
+def _edit(path, old, new):
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new))
+
+
+EXPERIMENT_CASES = [
+    # typos in keys and tables: refused with the nearest valid name, not ignored
+    ("stress_kpa", "stres_kpa", r"T1.toml \[protocol\] key: .*got 'stres_kpa' \(did you mean 'stress_kpa'\?\)"),
+    ("length_y_mm", "length_w_mm", r"T1.toml \[specimen\] key: .*got 'length_w_mm'"),
+    ("[data]", "[tissue]\nfibre_directions = [[1, 0, 0]]\n\n[data]", r"'fibre_directions' \(did you mean 'directions'"),
+    ("[data]", "[tisue]\nbulk_kpa = 1\n\n[data]", r"T1.toml table: .*got '\[tisue\]' \(did you mean '\[tissue\]'"),
+    # a key of another protocol kind
+    ('kind = "creep"', 'kind = "ramp"', r"\[protocol\] key: expected one of \['kind', 'hold_stress_kpa'"),
+    # types: a boolean is not the number 1, a string not a number
+    ("length_x_mm = 5.33", "length_x_mm = true", r"T1.toml specimen.length_x_mm: expected a number, got True"),
+    ("dt_s = 6.0", 'dt_s = "6"', r"T1.toml simulation.dt_s: expected a number, got '6'"),
+    # numerically absurd simulation steps for 1200 s of data
+    ("dt_s = 6.0", "dt_s = 1e-9", r"T1.toml simulation.dt_s: expected a step in \[0.0012, 600\] s .*got 1e-09"),
+    ("dt_s = 6.0", "dt_s = 1e9", r"T1.toml simulation.dt_s: expected a step in .*got 1000000000.0"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "pattern"), EXPERIMENT_CASES)
+def test_experiment_file(t1, capsys, old, new, pattern):
+    _edit(t1 / "T1.toml", old, new)
+    _refused(capsys, ["simulate", str(t1 / "T1.toml")], pattern)
+
+
+def _rows(path):
+    lines = path.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if line.startswith("time_s"))
+    return lines, header
+
+
+@pytest.mark.parametrize(
+    ("change", "pattern"),
+    [
+        ("text", r"T1.csv line \d+ column displacement_mm: expected a finite number \(decimal point\), got 'n/a'"),
+        ("comma", r"T1.csv line \d+: expected 3 comma-separated values, got .*\(a decimal comma\? use a point\)"),
+        ("duplicate", r"T1.csv line \d+ \(header\): expected distinct column names.*\['time_s'\] repeated"),
+        ("latin-1", r"T1.csv: expected UTF-8 text \(save the file as UTF-8 CSV\), got 'byte 0xfc at position \d+'"),
+        ("nan", r"T1.csv line \d+ column force_mN: expected a finite number"),
+    ],
+)
+def test_data_file(t1, capsys, change, pattern):
+    path = t1 / "T1.csv"
+    lines, h = _rows(path)
+    if change == "text":
+        lines[h + 3] = "9,n/a,100.46"
+    elif change == "comma":
+        lines[h + 3] = "9,0,5,100.46"
+    elif change == "duplicate":
+        lines[h] = "time_s,time_s,force_mN"
+    elif change == "nan":
+        lines[h + 3] = lines[h + 3].rsplit(",", 1)[0] + ",nan"
+    text = "\n".join(lines) + "\n"
+    if change == "latin-1":
+        path.write_bytes(("# operator: Jürgen\n" + text).encode("latin-1"))
+    else:
+        path.write_text(text)
+    _refused(capsys, ["simulate", str(t1 / "T1.toml")], pattern)
+
+
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16"])
+def test_data_file_with_a_byte_order_mark_is_read(t1, capsys, encoding):
+    """Spreadsheet programs write a byte-order mark (UTF-8) or UTF-16: the same numbers come out."""
+    main(["simulate", str(t1 / "T1.toml"), "--out", str(t1 / "a.csv")])
+    (t1 / "T1.csv").write_bytes((t1 / "T1.csv").read_text().encode(encoding))
+    assert main(["simulate", str(t1 / "T1.toml"), "--out", str(t1 / "b.csv")]) == 0
+    assert (t1 / "a.csv").read_text().splitlines()[2:] == (t1 / "b.csv").read_text().splitlines()[2:]
+
+
+def test_repeated_parameter(capsys):
+    _refused(
+        capsys,
+        ["simulate", str(DATA / "T1.toml"), "--params", "mu=1,mu=2"],
+        r"--params: expected each parameter once, got 'mu=1,mu=2' \(mu given twice\)",
+    )
+
+
+def _counts(tmp_path, rows):
+    p = tmp_path / "counts.csv"
+    p.write_text("section,smc_points,ecm_points,other_points\n" + "\n".join(rows) + "\n")
+    return str(p)
+
+
+@pytest.mark.parametrize(
+    ("first_row", "pattern"),
+    [
+        ("1,1e300,1,1", r"counts.csv data row 1 column smc_points: expected a whole number of points in \[0, 1e\+07\]"),
+        ("1,2.5,1,1", r"counts.csv data row 1 column smc_points: expected a whole number"),
+        ("12.9,3,1,1", r"counts.csv data row 1 column section: expected a section number >= 0, got 12.9"),
+        ("-6,3,1,1", r"counts.csv data row 1 column section: expected a section number >= 0, got -6.0"),
+        ("2,3,1,1", r"counts.csv data row 2 column section: expected each section once, got 2.0"),
+    ],
+)
+def test_point_counts(tmp_path, capsys, first_row, pattern):
+    path = _counts(tmp_path, [first_row, "2,3,1,1", "3,3,2,1", "4,2,2,1"])
+    _refused(capsys, ["stereology", "fractions", path], pattern)
+
+
+def test_point_counts_without_a_reference_point(tmp_path, capsys):
+    path = _counts(tmp_path, ["1,0,0,3", "2,0,0,1", "3,0,0,1"])
+    _refused(capsys, ["stereology", "fractions", path], r"counts: expected a positive reference count")
+
+
+def test_rose_top_names_its_option(capsys):
+    _refused(capsys, ["stereology", "rose", str(DATA / "stereology_lines.csv"), "--top", "0"], r"k \(--top\)")
+
+
+def test_image_that_is_not_one(tmp_path, capsys):
+    (tmp_path / "stack").mkdir()
+    (tmp_path / "stack" / "s01.png").write_text("not an image\n")
+    _refused(
+        capsys,
+        ["micrographs", "analyse", str(tmp_path / "stack"), "--pixel-size-um", "1", "--section-thickness-um", "5",
+         "--out", str(tmp_path / "o")],
+        r"image .*s01.png: expected a readable PNG image",
+    )  # fmt: skip
+
+
+def _output_cases(tmp_path):
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "adir").mkdir()
+    counts, lines = str(DATA / "stereology_counts.csv"), str(DATA / "stereology_lines.csv")
+    t1 = str(DATA / "T1.toml")
+    return [
+        (["simulate", t1, "--out", "adir"], r"--out: expected a file name \(this is a folder\)"),
+        (["simulate", t1, "--out", "afile/x.csv"], r"--out: expected a path under a folder.*afile is a file"),
+        (["fit", t1, "--out", "afile"], r"--out: expected a folder \(an existing file is in the way\)"),
+        (["fit", t1, "--out", "afile/run"], r"--out: expected a path under a folder"),
+        (["stereology", "rose", lines, "--out", "adir"], r"--out: expected a file name"),
+        (["stereology", "replicates", counts, lines, "--out", "afile/r.csv"], r"--out: expected a path under a folder"),
+        (["micrographs", "phantom", "afile"], r"OUTDIR: expected a folder"),
+        (["micrographs", "analyse", "adir", "--pixel-size-um", "1", "--section-thickness-um", "5", "--out", "afile"],
+         r"--out: expected a folder"),
+    ]  # fmt: skip
+
+
+def test_output_paths(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for argv, pattern in _output_cases(tmp_path):
+        _refused(capsys, argv, pattern)
