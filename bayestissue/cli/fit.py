@@ -74,11 +74,12 @@ def run(args) -> int:
     out = Path(args.out)
     progress, close_bar = _progress(config, enabled=config.sample and not args.no_progress)
     names = ", ".join(e.name for e in experiments)
-    stage = (
-        f"{config.nested.n_runs} nested runs"
-        if config.engine == "nested"
-        else f"{config.sampler.n_ensembles} ensembles"
-    )
+    if not config.sample:
+        stage = "least squares only"
+    elif config.engine == "nested":
+        stage = f"least squares, then {config.nested.n_runs} nested runs"
+    else:
+        stage = f"least squares, then {config.sampler.n_ensembles} ensembles"
     manifest = run_manifest(config, experiments, config_path=args.config)
     n_runs = config.nested.n_runs if config.engine == "nested" else config.sampler.n_ensembles
     with open_run_directory(out, manifest, resume=args.resume, overwrite=args.overwrite, n_runs=n_runs) as run_dir:
@@ -86,10 +87,16 @@ def run(args) -> int:
             print(note)
         if args.resume:
             print(_resume_line(run_dir, config.engine))
-        print(f"calibrating on {names}: least squares, then {stage}")
+        print(f"calibrating on {names}: {stage}")
         try:
             outcome = run_calibration(
-                experiments, config, out_dir=out, resume=args.resume, progress=progress, provenance=prov
+                experiments,
+                config,
+                out_dir=out,
+                resume=args.resume,
+                progress=progress,
+                provenance=prov,
+                say=lambda line: print(line, flush=True),
             )
         finally:
             close_bar()
@@ -151,11 +158,6 @@ def _resume_line(run_dir, engine: str) -> str:
 def _report(outcome, config, names, out, no_figures) -> None:
     from bayestissue.inference.summary import table_markdown
 
-    pf = outcome.paper_fit
-    print(
-        f"paper's least squares: cost {pf.cost:.5g}, {pf.nit} iterations, {pf.time_s:.1f} s, "
-        f"active bounds: {', '.join(pf.active_names()) or 'none'}"
-    )
     ms = outcome.multistart
     print(
         f"multi-start: {len(ms.results)} starts, best cost {ms.best.cost:.5g}, "

@@ -27,6 +27,7 @@ sampler's :math:`u`-space) and clusters the optima by their cost.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -318,6 +319,7 @@ def fit_multistart(
     include_initial: bool = True,
     cost_rtol: float = 1e-3,
     rng=None,
+    progress: Callable[[int, int, LeastSquaresResult], None] | None = None,
     **options,
 ) -> MultistartResult:
     """Least squares from a Latin hypercube of starts in the scaled box, plus the paper's start.
@@ -330,6 +332,7 @@ def fit_multistart(
     :math:`\\alpha^0`).
     cost_rtol : relative cost tolerance for :func:`cluster_optima`.
     rng : seed or Generator.
+    progress : ``progress(k, n, result)`` after start ``k`` of ``n`` (from 1).
     **options : passed to :func:`fit_least_squares` (``x_scale`` defaults to each start, as in the
     paper).
     """
@@ -345,7 +348,11 @@ def fit_multistart(
     if not starts:
         raise ValidationError("n_starts", n_starts, "at least one start (or include_initial=True)")
     t0 = time.perf_counter()
-    results = [fit_least_squares(problem, x0, **options) for x0 in starts]
+    results = []
+    for x0 in starts:
+        results.append(fit_least_squares(problem, x0, **options))
+        if progress is not None:
+            progress(len(results), len(starts), results[-1])
     results.sort(key=lambda r: r.cost)
     labels = cluster_optima([r.cost for r in results], cost_rtol=cost_rtol)
     return MultistartResult(results, labels, time.perf_counter() - t0, problem.n_failed, mat.sampled_names)

@@ -79,10 +79,27 @@ def read_table(
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"table file {str(path)!r} does not exist")
+    text = _decode(path)
+    meta, header_line, header = _header(text, path.name)
+    if isinstance(numeric, bool):
+        must = set(header) if numeric else set()
+    else:
+        must = {h for h in header if (numeric(h) if callable(numeric) else h in numeric)}
+    values = _numbers_fast(text, header_line, len(header)) if must == set(header) else None
+    if values is not None:
+        columns = {name: values[:, j].copy() for j, name in enumerate(header)}
+    else:
+        columns = _columns(text, header_line, header, must, path.name)
+    missing = [c for c in required if c not in columns]
+    if missing:
+        raise ValidationError(f"{path.name} columns", header, f"columns {list(required)}", f"missing {missing}")
+    return columns, meta
+
+
+def _header(text: str, name: str) -> tuple[dict, int, list[str]]:
+    """The ``# key: value`` lines above the header, the header's line number (1-based) and its column names."""
     meta: dict[str, str] = {}
-    body: list[str] = []
-    line_no: list[int] = []
-    for n, line in enumerate(_decode(path).splitlines(), start=1):
+    for n, line in enumerate(_io.StringIO(text), start=1):
         s = line.strip()
         if not s:
             continue
@@ -91,48 +108,72 @@ def read_table(
             if sep:
                 meta[k.strip()] = v.strip()
             continue
-        body.append(line)
-        line_no.append(n)
+        raw = next(csv.reader([line]))
+        header = [h.strip() for h in raw]
+        where = f"{name} line {n} (header)"
+        if "" in header:
+            raise ValidationError(where, ",".join(raw), "a name for every column")
+        dup = sorted({h for h in header if header.count(h) > 1})
+        if dup:
+            raise ValidationError(where, ",".join(header), "distinct column names", f"{dup} repeated")
+        return meta, n, header
+    raise ValidationError(name, "an empty table", "a header row and data rows")
+
+
+def _numbers_fast(text: str, header_line: int, n_columns: int) -> np.ndarray | None:
+    """The rows below the header as an (n, n_columns) float array, parsed in C (a 10^6-row file in about a second and
+    no per-cell Python objects); None when anything is amiss (a text cell, a ragged row, a non-finite value), for
+    :func:`_columns` to name the line and column."""
+    import warnings
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "empty input" and the like: judged below
+            a = np.loadtxt(_io.StringIO(text), delimiter=",", comments="#", skiprows=header_line, ndmin=2)
+    except ValueError:
+        return None
+    if a.shape[0] == 0 or a.shape[1] != n_columns or not np.all(np.isfinite(a)):
+        return None
+    return a
+
+
+def _columns(text: str, header_line: int, header: list[str], must: set, name: str) -> dict[str, np.ndarray]:
+    """Row-by-row reading with the line and column of the first bad cell (the slow path)."""
+    body, line_no = [], []
+    for n, line in enumerate(text.splitlines()[header_line:], start=header_line + 1):
+        s = line.strip()
+        if s and not s.startswith("#"):
+            body.append(line)
+            line_no.append(n)
     if not body:
-        raise ValidationError(f"{path.name}", "an empty table", "a header row and data rows")
-    rows = list(csv.reader(_io.StringIO("\n".join(body))))
-    header = [h.strip() for h in rows[0]]
-    where = f"{path.name} line {line_no[0]} (header)"
-    if "" in header:
-        raise ValidationError(where, ",".join(rows[0]), "a name for every column")
-    dup = sorted({h for h in header if header.count(h) > 1})
-    if dup:
-        raise ValidationError(where, ",".join(header), "distinct column names", f"{dup} repeated")
-    for k, row in enumerate(rows[1:], start=1):
+        raise ValidationError(name, "a header without data rows", "a header row and data rows")
+    rows = list(csv.reader(body))
+    for row, n in zip(rows, line_no, strict=True):
         if len(row) != len(header):
             hint = "a decimal comma? use a point" if len(row) > len(header) else None
-            raise ValidationError(
-                f"{path.name} line {line_no[k]}", ",".join(row), f"{len(header)} comma-separated values", hint
-            )
-    if isinstance(numeric, bool):
-        must = set(header) if numeric else set()
-    else:
-        must = {h for h in header if (numeric(h) if callable(numeric) else h in numeric)}
+            raise ValidationError(f"{name} line {n}", ",".join(row), f"{len(header)} comma-separated values", hint)
     columns: dict[str, np.ndarray] = {}
-    for j, name in enumerate(header):
-        raw = [r[j].strip() for r in rows[1:]]
+    for j, col in enumerate(header):
+        raw = [r[j].strip() for r in rows]
         try:
-            columns[name] = np.array([_number(x) for x in raw], dtype=float)
+            columns[col] = np.array([_number(x) for x in raw], dtype=float)
         except ValueError:
-            if name not in must:
-                columns[name] = np.array(raw, dtype=str)
+            if col not in must:
+                columns[col] = np.array(raw, dtype=str)
                 continue
-            for k, x in enumerate(raw, start=1):
-                try:
-                    _number(x)
-                except ValueError:
-                    raise ValidationError(
-                        f"{path.name} line {line_no[k]} column {name}", x, "a finite number (decimal point)"
-                    ) from None
-    missing = [c for c in required if c not in columns]
-    if missing:
-        raise ValidationError(f"{path.name} columns", header, f"columns {list(required)}", f"missing {missing}")
-    return columns, meta
+            k = next(k for k, x in enumerate(raw) if not _is_number(x))
+            raise ValidationError(
+                f"{name} line {line_no[k]} column {col}", raw[k], "a finite number (decimal point)"
+            ) from None
+    return columns
+
+
+def _is_number(text: str) -> bool:
+    try:
+        _number(text)
+    except ValueError:
+        return False
+    return True
 
 
 def write_table(
@@ -154,6 +195,9 @@ def write_table(
         for k, v in (meta or {}).items():
             fh.write(f"# {k}: {v}\n")
         fh.write(",".join(names) + "\n")
+        if all(np.issubdtype(a.dtype, np.number) for a in arrays):  # in C: a 10^6-row curve in about a second
+            np.savetxt(fh, np.column_stack(arrays) if arrays else np.empty((0, 0)), fmt=fmt, delimiter=",")
+            return path
         for i in range(n.pop()):
             cells = []
             for a in arrays:

@@ -15,7 +15,6 @@ Steps of :func:`run_calibration` (used by ``bayestissue fit`` and ``studies/cali
 
 from __future__ import annotations
 
-import logging
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -48,8 +47,6 @@ from bayestissue.workflows.problem import build_problem, reference_values
 
 __all__ = ["CalibrationOutcome", "run_calibration"]
 
-log = logging.getLogger(__name__)
-
 
 @dataclass
 class CalibrationOutcome:
@@ -77,6 +74,7 @@ def run_calibration(
     resume: bool = False,
     progress: Callable[[int, int, int], None] | None = None,
     provenance: Mapping | None = None,
+    say: Callable[[str], None] | None = None,
 ) -> CalibrationOutcome:
     """Calibrate the material parameters on one or several experiments.
 
@@ -92,7 +90,9 @@ def run_calibration(
         ``progress(run, n_evaluations, n_eff, explored, log_z)`` (nested).
     provenance : global attributes for the results file (version, seed, hashes: see
         :func:`bayestissue.io.results.provenance`).
+    say : receives one line per finished least-squares fit (the stages before sampling can take minutes).
     """
+    say = say or (lambda line: None)
     config = config or CalibrationConfig()
     rng = np.random.default_rng(config.seed)
     problem = build_problem(experiments, config)
@@ -105,7 +105,10 @@ def run_calibration(
     t0 = time.perf_counter()
     paper_fit = fit_least_squares(problem, max_nfev=config.ls_max_nfev, jacobian=config.ls_jacobian)
     times["paper_least_squares"] = time.perf_counter() - t0
-    log.info("paper least squares: cost %.4g in %d iterations", paper_fit.cost, paper_fit.nit)
+    say(
+        f"paper's least squares: cost {paper_fit.cost:.5g}, {paper_fit.nit} iterations, {paper_fit.time_s:.1f} s, "
+        f"active bounds: {', '.join(paper_fit.active_names()) or 'none'}"
+    )
     t0 = time.perf_counter()
     multi = fit_multistart(
         problem,
@@ -114,6 +117,7 @@ def run_calibration(
         space="unit",
         max_nfev=config.ls_max_nfev,
         jacobian=config.ls_jacobian,
+        progress=lambda k, n, r: say(f"multi-start {k}/{n}: cost {r.cost:.5g}, {r.nit} iterations, {r.time_s:.1f} s"),
     )
     times["multistart"] = time.perf_counter() - t0
     best = min([paper_fit, multi.best], key=lambda r: r.cost)
