@@ -30,7 +30,6 @@ coordinates (ramp coordinates for T2 and the joint run, MIRROR_COORDINATES).
 from __future__ import annotations
 
 import argparse
-import shutil
 import time
 from pathlib import Path
 
@@ -53,6 +52,7 @@ from bayestissue.workflows.calibration_study import (  # noqa: E402
     recovery_lines,
     study_config,
 )
+from bayestissue.workflows.run_directory import open_run_directory, run_manifest  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,12 +86,10 @@ def main(argv=None) -> int:
         paths = [args.data / f"{e}.toml" for e in exp_names]
         exps = [load_experiment(p) for p in paths]
         config = config_from_mapping(None, **study_config(key, model, exp_name))
-        prov = provenance(seed=SEED, data_paths=[f for p in paths for f in (p, p.with_suffix(".csv"))])
+        prov = provenance(seed=SEED, data_paths=[Path(f) for e in exps for f in (e.source, e.data_file) if f])
         prov["study"] = f"studies/calibrate.py --{key}"
-        run_dir = args.runs / name
-        if run_dir.exists():
-            shutil.rmtree(run_dir)
-        outcome = run_calibration(exps, config, out_dir=run_dir, provenance=prov)
+        with open_run_directory(args.runs / name, run_manifest(config, exps), overwrite=True) as run_dir:
+            outcome = run_calibration(exps, config, out_dir=run_dir.path, provenance=prov)
         title = f"Calibration on {' + '.join(exp_names)}, {model} model ({key} setting)"
         md = table_markdown(outcome.table, title=title)
         (args.out / f"calibration_summary_{name}.md").write_text(md)
