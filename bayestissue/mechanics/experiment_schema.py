@@ -1,66 +1,62 @@
-"""The experiment file's schema: which tables and keys exist, and the type of each value.
+"""The experiment file's schema: its tables and keys, each with its type, range, default and meaning.
 
 :func:`check_experiment_document` runs on the parsed TOML before anything is built from it, so that a typo
 (``stres_kpa``, ``length_w_mm``, ``[tissue] fibre_directions``) is refused with the nearest valid name instead of
 being ignored, and a value of the wrong type (``length_x_mm = true``, ``dt_s = "6"``) is refused instead of being
-converted. Ranges (a positive length, fractions summing to 1, unit directions) are checked where the objects are
-built (:class:`~bayestissue.mechanics.experiment.Experiment`, the protocols, :class:`~.tissue.TissueConfig`),
-against the values the checks here let through.
+converted. The key kinds and checks are :mod:`bayestissue._schema`'s, shared with the calibration configuration.
+What one key cannot say (fractions summing to 1, unit directions, the simulation step against the data's span) is
+checked where the objects are built (:class:`~bayestissue.mechanics.experiment.Experiment`, the protocols,
+:class:`~bayestissue.mechanics.tissue.TissueConfig`). :func:`reference_markdown` renders ``docs/experiment.md``.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
-from bayestissue._validation import ValidationError, check_known_keys
+from bayestissue._schema import Key, check_table, reference_rows
+from bayestissue._validation import check_known_keys
 
-__all__ = ["TABLES", "PROTOCOL_KEYS", "check_experiment_document"]
+__all__ = ["TABLES", "PROTOCOL_KEYS", "check_experiment_document", "reference_markdown"]
 
+_POSITIVE = {"low": 0.0, "low_open": True}
 
-def _number(v) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _numbers(v) -> bool:
-    return isinstance(v, list) and all(_number(x) for x in v)
-
-
-def _rows(v) -> bool:
-    return isinstance(v, list) and all(_numbers(r) for r in v)
-
-
-#: value kind -> (test, what the message says is expected)
-_KINDS = {
-    "text": (lambda v: isinstance(v, str), "a string"),
-    "bool": (lambda v: isinstance(v, bool), "true or false"),
-    "number": (_number, "a number"),
-    "numbers": (_numbers, "a list of numbers"),
-    "rows": (_rows, "a list of [x, y, z] rows"),
-}
-
-#: The keys of each table ("" is the top level, whose tables are checked with their own keys).
-TABLES: dict[str, dict[str, str]] = {
-    "": {"name": "text", "description": "text", "synthetic": "bool"},
-    "specimen": {"length_x_mm": "number", "length_y_mm": "number", "length_z_mm": "number"},
+#: The keys of each table ("" is the top level).
+TABLES: dict[str, dict[str, Key]] = {
+    "": {
+        "name": Key("text", "the file's stem", "the experiment's name in tables, figures and noise parameters"),
+        "description": Key("text", '""', "free text"),
+        "synthetic": Key("bool", "false", "true for simulated replicas (never present them as measured)"),
+    },
+    "specimen": {
+        "length_x_mm": Key("float", "required", "specimen length along the load (mm)", **_POSITIVE),
+        "length_y_mm": Key("float", "required", "cross-section side (mm)", **_POSITIVE),
+        "length_z_mm": Key("float", "required", "cross-section side (mm)", **_POSITIVE),
+    },
     "protocol": {
-        "kind": "text",
-        "stress_kpa": "number",
-        "hold_stress_kpa": "number",
-        "hold_s": "number",
-        "rate_kpa_per_s": "number",
-        "force_column": "text",
+        "kind": Key("choice", "required", "creep, ramp, or a measured force history",
+                    choices=("creep", "ramp", "measured")),
+        "stress_kpa": Key("float", "required (creep)", "constant nominal stress from the first step on (kPa)"),
+        "hold_stress_kpa": Key("float", "required (ramp)", "nominal stress held first (kPa)"),
+        "hold_s": Key("float", "required (ramp)", "duration of the hold (s)", low=0.0),
+        "rate_kpa_per_s": Key("float", "required (ramp)", "rate of the nominal stress after the hold (kPa/s)"),
+        "force_column": Key("text", '"force_mN"', "the data file's force column (measured)"),
     },
-    "simulation": {"dt_s": "number"},
-    "data": {"file": "text", "duration_s": "number", "step_s": "number"},
+    "simulation": {
+        "dt_s": Key("float", "required", "simulation step (s), 2 to 10^6 steps over the data's span", **_POSITIVE),
+    },
+    "data": {
+        "file": Key("text", "none", "CSV beside the experiment file: time_s, displacement_mm, force_mN"),
+        "duration_s": Key("float", "without file", "simulated duration (s)", **_POSITIVE),
+        "step_s": Key("float", "without file", "output step (s)", **_POSITIVE),
+    },
     "tissue": {
-        "directions": "rows",
-        "phi_fibres": "numbers",
-        "phi_matrix": "number",
-        "bulk_kpa": "number",
-        "eps0": "numbers",
+        "directions": Key("rows", "the paper's three", "fibre directions, unit vectors within 1 %"),
+        "phi_fibres": Key("numbers", "[0.2, 0.2, 0.2]", "volume fraction of each fibre family"),
+        "phi_matrix": Key("float", "0.4", "matrix volume fraction (with the fibres': 1)", low=0.0),
+        "bulk_kpa": Key("float", "1000", "bulk modulus of the volumetric penalty (kPa)", **_POSITIVE),
+        "eps0": Key("numbers", "zeros", "slack Green strain of each fibre family"),
     },
-}
+}  # fmt: skip
 
 #: The ``[protocol]`` keys each kind takes (a ramp's ``stress_kpa`` is a mistake, not an extra).
 PROTOCOL_KEYS = {
@@ -70,34 +66,48 @@ PROTOCOL_KEYS = {
 }
 
 
-def _check_table(table: Mapping, keys: Mapping[str, str], file: str, prefix: str, known: list[str]) -> None:
-    label = f"[{prefix[:-1]}]" if prefix else "top-level"
-    check_known_keys(f"{file} {label} key", table, known)
-    for key, value in table.items():
-        if key in keys:
-            ok, expected = _KINDS[keys[key]]
-            if not ok(value):
-                raise ValidationError(f"{file} {prefix}{key}", value, expected)
-
-
 def check_experiment_document(doc: Mapping, file: str) -> None:
     """Check a parsed experiment file's tables, keys and value types; ``file`` names it in the messages.
 
     Raises
     ------
     ValidationError
-        ``<file> <table>.<key>: expected ..., got ...``; an unknown key or table is named with the nearest valid
+        ``<file> [<table>] <key>: expected ..., got ...``; an unknown key or table is named with the nearest valid
         one.
     """
     tables = [t for t in TABLES if t]
     top = {k: v for k, v in doc.items() if not isinstance(v, Mapping)}
-    _check_table(top, TABLES[""], file, "", [*TABLES[""], *tables])
+    check_known_keys(f"{file} top-level key", top, [*TABLES[""], *tables])
+    # a table name given a plain value (specimen = 5) is left to the loader's "expected a [specimen] table"
+    check_table({k: v for k, v in top.items() if k in TABLES[""]}, TABLES[""], f"{file} top-level")
     for name, table in doc.items():
         if not isinstance(table, Mapping):
             continue
         check_known_keys(f"{file} table", {f"[{name}]": None}, [f"[{t}]" for t in tables])
-        keys = TABLES[name]
-        known = list(keys)
-        if name == "protocol" and table.get("kind") in PROTOCOL_KEYS:
-            known = list(PROTOCOL_KEYS[table["kind"]])
-        _check_table(table, keys, file, f"{name}.", known)
+        allowed = PROTOCOL_KEYS.get(table.get("kind")) if name == "protocol" else None
+        check_table(table, TABLES[name], f"{file} [{name}]", allowed=allowed)
+
+
+def reference_markdown() -> str:
+    """The experiment file reference (``docs/experiment.md``), rendered from :data:`TABLES`."""
+    per_kind = "; ".join(f"{kind}: {', '.join(keys[1:]) or 'none'}" for kind, keys in PROTOCOL_KEYS.items())
+    lines = [
+        "# Experiment file reference",
+        "",
+        "<!-- Generated from bayestissue/mechanics/experiment_schema.py (reference_markdown); "
+        "tests/mechanics/test_experiment_schema.py keeps it equal. -->",
+        "",
+        "An experiment is a TOML file (e.g. `data/T1.toml`) and, usually, a CSV data file beside it. Unknown tables "
+        "and keys (with the nearest valid name), values of the wrong type and out of range are refused with the "
+        "file, the key, the value and what was expected (exit status 2). A `[protocol]` takes the keys of its kind "
+        f"only ({per_kind}).",
+        "",
+        "The data file: comment lines `# key: value` (kept as metadata; `noise_sd_mm` is the known noise sd of a "
+        "synthetic replica), a header row, then one row per time, comma-separated, decimal points; UTF-8 (with or "
+        "without a byte-order mark) or UTF-16 with its mark. Columns: `time_s` (required, strictly increasing, "
+        ">= 0), `displacement_mm` (the observed displacement of the loaded face), `force_mN` (the applied force; the "
+        "load of a measured protocol).",
+    ]
+    for table, keys in TABLES.items():
+        lines += ["", "## top level" if not table else f"## [{table}]", "", *reference_rows(keys)]
+    return "\n".join(lines) + "\n"

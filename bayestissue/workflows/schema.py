@@ -2,16 +2,16 @@
 
 :func:`check_mapping` refuses an unknown section or key, a value of the wrong type (``"50"`` for a number, ``true``
 for a count: TOML booleans are not integers here) or out of range, naming the file, the section, the key, the value
-and what was expected. :func:`reference_markdown` renders the same table as ``docs/config.md`` (a test keeps the two
-equal), so the documentation cannot drift from what the code accepts.
+and what was expected (the key kinds and checks: :mod:`bayestissue._schema`, shared with the experiment files).
+:func:`reference_markdown` renders the same table as ``docs/config.md`` (a test keeps the two equal), so the
+documentation cannot drift from what the code accepts.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 
+from bayestissue._schema import Key, check_table, reference_rows
 from bayestissue._validation import ValidationError, check_known_keys
 from bayestissue.inference.coordinates import COORDINATES
 from bayestissue.inference.likelihood import NOISE_MODELS
@@ -21,19 +21,6 @@ from bayestissue.inference.sampling.options import MOVES, PROPOSALS
 ENGINES = ("emcee", "nested")
 
 __all__ = ["ENGINES", "SCHEMA", "Key", "check_mapping", "reference_markdown"]
-
-
-@dataclass(frozen=True)
-class Key:
-    """One configuration key: ``kind`` (see :func:`_check_value`), default (text), meaning; ``low`` an inclusive
-    lower bound of a number (``low_open`` makes it exclusive); ``choices`` the allowed strings."""
-
-    kind: str
-    default: str
-    doc: str
-    low: float | None = None
-    low_open: bool = False
-    choices: tuple = ()
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -119,72 +106,6 @@ SCHEMA: dict[str, dict[str, Key]] = {
 }  # fmt: skip
 
 
-def _is_number(v) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _expected(key: Key) -> str | None:
-    """What ``key`` expects, as the error message says it, or None where ``v`` is valid (see _check_value)."""
-    bound = "" if key.low is None else f" {'>' if key.low_open else '>='} {key.low:g}"
-    return {
-        "int": f"an integer{bound}",
-        "float": f"a number{bound}",
-        "bool": "true or false",
-        "choice": f"one of {list(key.choices)}",
-        "names": "a list of parameter names",
-        "fixed": "a table name = value or a list of names",
-        "bounds": "a table name = [lower, upper]",
-        "name_text": 'a table name = "text"',
-        "name_number": "a table name = value",
-        "groups": "two lists of parameter names of equal length",
-        "pair": "a pair [lower, upper] of numbers",
-        "sd": f'a number{bound} or "data"',
-    }[key.kind]
-
-
-def _in_range(v, key: Key) -> bool:
-    return key.low is None or (v > key.low if key.low_open else v >= key.low)
-
-
-def _is_names(v) -> bool:
-    return isinstance(v, list) and all(isinstance(x, str) for x in v)
-
-
-def _is_pair(v) -> bool:
-    return isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v)
-
-
-def _is_table(v, value_ok) -> bool:
-    return isinstance(v, Mapping) and all(value_ok(x) for x in v.values())
-
-
-def _valid(v, key: Key) -> bool:
-    k = key.kind
-    if k == "int":
-        return isinstance(v, int) and not isinstance(v, bool) and _in_range(v, key)
-    if k in ("float", "sd"):
-        return (k == "sd" and v == "data") or (_is_number(v) and _in_range(v, key))
-    if k == "bool":
-        return isinstance(v, bool)
-    if k == "choice":
-        return isinstance(v, str) and v in key.choices
-    if k == "names":
-        return _is_names(v)
-    if k == "fixed":
-        return _is_names(v) or _is_table(v, _is_number)
-    if k == "bounds":
-        return _is_table(v, _is_pair)
-    if k == "name_text":
-        return _is_table(v, lambda x: isinstance(x, str))
-    if k == "name_number":
-        return _is_table(v, _is_number)
-    if k == "groups":
-        return isinstance(v, list) and len(v) == 2 and all(_is_names(g) for g in v) and len(v[0]) == len(v[1]) > 0
-    if k == "pair":
-        return _is_pair(v)
-    raise AssertionError(f"unknown schema kind {k!r}")  # a bug in SCHEMA, not user input
-
-
 def check_mapping(cfg: Mapping, *, where: str = "configuration") -> None:
     """Check a parsed configuration against :data:`SCHEMA`.
 
@@ -199,10 +120,7 @@ def check_mapping(cfg: Mapping, *, where: str = "configuration") -> None:
         if not isinstance(table, Mapping):
             raise ValidationError(f"{where} [{section}]", table, "a table of key = value entries")
         known = SCHEMA[section]
-        check_known_keys(f"{where} [{section}] key", table, known)
-        for name, value in table.items():
-            if not _valid(value, known[name]):
-                raise ValidationError(f"{where} [{section}] {name}", value, _expected(known[name]))
+        check_table(table, known, f"{where} [{section}]")
 
 
 def reference_markdown() -> str:
@@ -218,7 +136,5 @@ def reference_markdown() -> str:
         "the value and what was expected (exit status 2).",
     ]
     for section, keys in SCHEMA.items():
-        lines += ["", f"## [{section}]", "", "| key | expects | default | meaning |", "|---|---|---|---|"]
-        for name, key in keys.items():
-            lines.append(f"| `{name}` | {_expected(key)} | {key.default} | {key.doc} |")
+        lines += ["", f"## [{section}]", "", *reference_rows(keys)]
     return "\n".join(lines) + "\n"

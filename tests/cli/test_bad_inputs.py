@@ -42,8 +42,8 @@ EXPERIMENT_CASES = [
     # a key of another protocol kind
     ('kind = "creep"', 'kind = "ramp"', r"\[protocol\] key: expected one of \['kind', 'hold_stress_kpa'"),
     # types: a boolean is not the number 1, a string not a number
-    ("length_x_mm = 5.33", "length_x_mm = true", r"T1.toml specimen.length_x_mm: expected a number, got True"),
-    ("dt_s = 6.0", 'dt_s = "6"', r"T1.toml simulation.dt_s: expected a number, got '6'"),
+    ("length_x_mm = 5.33", "length_x_mm = true", r"T1.toml \[specimen\] length_x_mm: expected a number > 0, got True"),
+    ("dt_s = 6.0", 'dt_s = "6"', r"T1.toml \[simulation\] dt_s: expected a number > 0, got '6'"),
     # numerically absurd simulation steps for 1200 s of data
     ("dt_s = 6.0", "dt_s = 1e-9", r"T1.toml simulation.dt_s: expected a step in \[0.0012, 600\] s .*got 1e-09"),
     ("dt_s = 6.0", "dt_s = 1e9", r"T1.toml simulation.dt_s: expected a step in .*got 1000000000.0"),

@@ -53,20 +53,20 @@ def test_bundled_experiments_load():
         (
             "length_y_mm = 2.43",
             "length_y_mm = -2.43",
-            r"specimen.length_y_mm: expected a number > 0, got -2.43",
+            r"\[specimen\] length_y_mm: expected a number > 0, got -2.43",
         ),
         (
             "length_x_mm = 5.33",
             "length_x_mm = 0",
-            r"specimen.length_x_mm: expected a number > 0, got 0",
+            r"\[specimen\] length_x_mm: expected a number > 0, got 0",
         ),
         (
             'kind = "creep"',
             'kind = "relax"',
-            r"protocol.kind: expected one of \['creep', 'measured', 'ramp'\]",
+            r"\[protocol\] kind: expected one of \['creep', 'ramp', 'measured'\]",
         ),
         ("stress_kpa = 10.6", "", r"protocol.stress_kpa: expected a value for 'stress_kpa'"),
-        ("dt_s = 6.0", "dt_s = 0", r"simulation.dt_s: expected a number > 0, got 0"),
+        ("dt_s = 6.0", "dt_s = 0", r"\[simulation\] dt_s: expected a number > 0, got 0"),
         (
             "[simulation]\ndt_s = 6.0",
             "",
@@ -97,7 +97,7 @@ def test_bad_experiment_fields(t1, old, new, match):
             r"tissue.directions\[0\]: expected a unit vector .*2",
         ),
         ("phi_fibres = [0.2, 0.2]", r"tissue.phi_fibres: expected 3 values"),
-        ("bulk_kpa = -5", r"tissue.bulk_kpa: expected a number > 0, got -5"),
+        ("bulk_kpa = -5", r"\[tissue\] bulk_kpa: expected a number > 0, got -5"),
     ],
 )
 def test_bad_tissue(t1, tissue, match):
