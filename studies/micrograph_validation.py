@@ -43,7 +43,9 @@ def main(argv=None):
     g.add_argument("--full", action="store_true", help="bigger phantom, more replicates")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--no-separable", action="store_true", help="skip the separable phantom")
+    ap.add_argument("--out", type=Path, default=FIG, help="output folder (default figures/)")
     args = ap.parse_args(argv)
+    fig_dir = args.out
     t0 = time.perf_counter()
     size = "quick" if args.quick else "full" if args.full else "default"
     extent, n_boot, n_surs, n_seeds = SIZES[size]
@@ -58,9 +60,9 @@ def main(argv=None):
     if not args.no_separable:
         rows["separable"] = [seed_row(sep_opts, seed=k, chain=sep if k == args.seed else None) for k in seeds]
     graze = grazing_loss(core_px=0) + grazing_loss(core_px=1)[:1]
-    FIG.mkdir(exist_ok=True)
+    fig_dir.mkdir(parents=True, exist_ok=True)
     fig = plot_validation(main_run, sep)
-    fig.savefig(FIG / "micrographs_validation.png", dpi=110)
+    fig.savefig(fig_dir / "micrographs_validation.png", dpi=110)
     res = main_run["res"]
     k = int(res.grid.section[0])
     fig = plot_overlay(
@@ -69,10 +71,10 @@ def main(argv=None):
         section_z_um=(k + 0.5) * 5.0, thickness_um=5.0, valid=res.registered.valid,
         title=f"default phantom, registered section {k} (synthetic)",
     )  # fmt: skip
-    fig.savefig(FIG / "micrographs_overlay.png", dpi=110)
+    fig.savefig(fig_dir / "micrographs_overlay.png", dpi=110)
     elapsed = time.perf_counter() - t0
     md = validation_markdown(main_run, sep, argv if argv is not None else [], elapsed, rows, graze)
-    (FIG / "micrographs_validation.md").write_text(md)
+    (fig_dir / "micrographs_validation.md").write_text(md)
     print(md)
     print(f"micrograph_validation ({size}) took {elapsed:.1f} s")
     return 0

@@ -1,8 +1,9 @@
-"""The main study (``make study``): every stage on the bundled data, writing into figures/.
+"""The main study (``make study``): every stage on the bundled data, writing into figures/ (--quick: figures/quick/).
 
 Stages run in order, each a script in studies/ with a ``main(argv)``; the time of each is printed at the end.
-``--quick`` is a smoke run (CI-sized chains, about 2.5 minutes), ``--full`` publication-quality chains; the default
-aims at 20 minutes on a 2-core machine (measured on a fresh clone: 1286 s of stages, 855 s of them calibration).
+``--quick`` is a smoke run (CI-sized chains, about 2 minutes) and writes into its own folder, never over the committed
+results; ``--full`` publication-quality chains; the default aims at 20 minutes on a 2-core machine (measured on a
+fresh clone: 1286 s of stages, 855 s of them calibration).
 
     python studies/run_study.py [--quick | --full] [--only STAGE ...]   # STAGE: a script or a stage name
 """
@@ -52,13 +53,15 @@ def main(argv=None) -> int:
         metavar="STAGE",
         help="run only these stages, by script or name (e.g. calibrate.py or calibration)",
     )
+    ap.add_argument("--out", type=Path, default=None, help="output folder (default: figures/; --quick: figures/quick/)")
     args = ap.parse_args(argv)
+    out = args.out or HERE.parent / "figures" / ("quick" if args.quick else "")
     known = {key: script for name, script in STAGES for key in (name, script)}
     unknown = [s for s in args.only or () if s not in known]
     if unknown:
         ap.error(f"--only: expected stages among {[script for _, script in STAGES]} or their names, got {unknown}")
     only = {known[s] for s in args.only or ()}
-    flags = ["--quick"] if args.quick else ["--full"] if args.full else []
+    flags = (["--quick"] if args.quick else ["--full"] if args.full else []) + ["--out", str(out)]
     timings, failed = [], []
     t_all = time.perf_counter()
     for name, script in STAGES:

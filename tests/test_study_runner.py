@@ -29,7 +29,15 @@ def runner(monkeypatch):
 def test_only_selects_stages_by_script_or_name_in_study_order(runner):
     module, ran = runner
     assert module.main(["--quick", "--only", "report.py", "calibration"]) == 0
-    assert ran == [("calibrate.py", ("--quick",)), ("report.py", ("--quick",))]
+    quick = ("--quick", "--out", str(ROOT / "figures" / "quick"))  # a quick run never writes over figures/
+    assert ran == [("calibrate.py", quick), ("report.py", quick)]
+
+
+def test_default_and_chosen_output_folders(runner, tmp_path):
+    module, ran = runner
+    assert module.main(["--only", "report.py"]) == 0
+    assert module.main(["--full", "--only", "report.py", "--out", str(tmp_path)]) == 0
+    assert ran == [("report.py", ("--out", str(ROOT / "figures"))), ("report.py", ("--full", "--out", str(tmp_path)))]
 
 
 def test_an_unknown_stage_is_refused_by_name(runner, capsys):

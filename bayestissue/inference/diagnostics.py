@@ -195,9 +195,15 @@ class ConvergenceReport(ParameterChecks):
             names = [self.names[j] for j in idx]
             lines.append(f"ensemble {e} apart from the others in {names}: best log-posterior {kind}")
         if not np.all(self.length_ok):
+            short = np.flatnonzero(~self.length_ok)
+            need = ", ".join(
+                f"{k}: {self.n_steps[k]} of {self.tau_factor:g} x {np.max(self.tau[k]):.0f} = "
+                f"{self.tau_factor * np.max(self.tau[k]):.0f} steps"
+                for k in short
+            )
             lines.append(
-                f"ensembles {np.flatnonzero(~self.length_ok).tolist()} shorter than "
-                f"{self.tau_factor:g} tau or tau not yet stable"
+                f"ensembles {short.tolist()} shorter than {self.tau_factor:g} tau or tau not yet stable ({need}; "
+                "production steps, pruning and adaptation not counted)"
             )
         n_stuck = int(self.stuck.sum())
         head = (

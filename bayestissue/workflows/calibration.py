@@ -72,7 +72,7 @@ def run_calibration(
     *,
     out_dir: str | Path | None = None,
     resume: bool = False,
-    progress: Callable[[int, int, int], None] | None = None,
+    progress: Callable | None = None,
     provenance: Mapping | None = None,
     say: Callable[[str], None] | None = None,
 ) -> CalibrationOutcome:
@@ -86,7 +86,8 @@ def run_calibration(
     checkpoints
         (``checkpoints/ensemble_<k>.h5``); nothing is written without it.
     resume : continue the sampler runs checkpointed in ``out_dir``.
-    progress : during sampling, ``progress(ensemble_id, steps_done, max_steps)`` (emcee) or
+    progress : during sampling, ``progress(ensemble_id, steps_done, steps_total, phase)`` (emcee; phases
+        pruning, adaptation, sampling) or
         ``progress(run, n_evaluations, n_eff, explored, log_z)`` (nested).
     provenance : global attributes for the results file (version, seed, hashes: see
         :func:`bayestissue.io.results.provenance`).

@@ -168,11 +168,12 @@ def parse_args(argv=None, description: str = "", *, root: Path):
     ap.add_argument("--out", default=str(Path(root) / "figures"))
     ap.add_argument(
         "--posteriors",
-        default=str(Path(root) / "figures"),
-        help="folder of the calibration stage's results files calibration_<run>_posterior.nc",
+        default=None,
+        help="folder of the calibration stage's results files calibration_<run>_posterior.nc (default: --out)",
     )
     ap.add_argument("--seed", type=int, default=20261121)
     a = ap.parse_args(argv)
+    a.posteriors = a.posteriors or a.out
     a.mode = MODES["quick" if a.quick else "full" if a.full else "default"]
     return a
 

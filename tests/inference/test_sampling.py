@@ -121,8 +121,8 @@ def test_resume_after_interruption_gives_the_unbroken_chain(tmp_path, moves):
     p0 = initial_walkers(problem, mean, 10, cov=cov, rng=3)
     full = run_ensemble(problem, p0, options=_opts(moves), seed=5)
 
-    def stop_at_150(k, n, nmax):
-        if n >= 150:
+    def stop_at_150(k, n, nmax, phase):
+        if phase == "sampling" and n >= 150:
             raise _Interrupt
 
     path = tmp_path / "chain.h5"
@@ -147,7 +147,7 @@ _CHILD = textwrap.dedent(
     opts = SamplerOptions(n_walkers=10, max_steps=100000, check_every=50, tau_factor=1e9,
                           prune_rounds=1, prune_steps=50)
     run_ensemble(problem, p0, options=opts, seed=5, backend_path=sys.argv[1],
-                 progress=lambda k, n, m: print(n, flush=True))
+                 progress=lambda k, n, m, phase: phase == "sampling" and print(n, flush=True))
     """
 )
 

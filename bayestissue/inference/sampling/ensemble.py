@@ -68,7 +68,7 @@ def run_ensemble(
     backend_path: str | Path | None = None,
     ensemble_id: int = 0,
     resume: bool = False,
-    progress: Callable[[int, int, int], None] | None = None,
+    progress: Callable[[int, int, int, str], None] | None = None,
     proposal: TMixture | None = None,
 ) -> EnsembleResult:
     """Run one ensemble with automatic length, optionally checkpointed to HDF5.
@@ -83,7 +83,9 @@ def run_ensemble(
     backend_path : HDF5 file for emcee's ``HDFBackend`` (group ``ensemble_<id>``); None keeps it in
     memory.
     resume : continue the run stored in ``backend_path`` instead of starting afresh.
-    progress : ``progress(ensemble_id, steps_done, max_steps)`` after every chunk.
+    progress : ``progress(ensemble_id, steps_done, steps_total, phase)`` after every chunk: phase
+        ``"pruning"`` and ``"adaptation"`` (discarded; :func:`prepare_ensemble`), then ``"sampling"`` (of
+        ``max_steps``).
     proposal : a fitted mixture for adaptive moves, fitted elsewhere (a shared proposal): ``p0`` is
         then taken as the production start (pruning and adaptation were done by
         :func:`prepare_ensemble`).
@@ -107,7 +109,9 @@ def run_ensemble(
         if proposal is not None:  # p0 comes from prepare_ensemble (checked there, then moved by the sampler)
             mixture = proposal
         else:
-            p0, mixture, _ = prepare_ensemble(problem, p0, options=options, seed=seed)
+            p0, mixture, _ = prepare_ensemble(
+                problem, p0, options=options, seed=seed, report=_phase_report(progress, ensemble_id)
+            )
         if mixture is not None and backend_path is not None:
             mixture.to_hdf5(backend_path, f"{group}_proposal")
         state = p0
@@ -140,7 +144,7 @@ def run_ensemble(
         taus.append(tau)
         checks.append(n)
         if progress is not None:
-            progress(ensemble_id, n, options.max_steps)
+            progress(ensemble_id, n, options.max_steps, "sampling")
     chain = sampler.get_chain()
     lp = sampler.get_log_prob()
     tau = _tau(chain)
@@ -164,6 +168,13 @@ def run_ensemble(
         n_failed=problem.n_failed,
         resumed_at=int(resumed_at),
     )
+
+
+def _phase_report(progress, ensemble_id: int):
+    """``prepare_ensemble``'s ``report(phase, done, total)`` as ``progress(ensemble_id, done, total, phase)``."""
+    if progress is None:
+        return None
+    return lambda phase, done, total: progress(ensemble_id, done, total, phase)
 
 
 def _stored_run(path, k, adaptive: bool) -> tuple[int, TMixture | None]:

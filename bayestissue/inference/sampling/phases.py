@@ -13,7 +13,25 @@ from bayestissue.inference.sampling.options import ADAPTIVE_MOVES, MOVES, Sample
 __all__ = ["prepare_ensemble"]
 
 
-def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
+#: Steps between progress reports of the discarded phases.
+REPORT_CHUNK = 100
+
+
+def _run(sampler, state, n_steps: int, report, phase: str, done: int, total: int):
+    """``sampler.run_mcmc`` for ``n_steps`` in chunks of :data:`REPORT_CHUNK`, calling ``report(phase, steps done,
+    total)`` after each (the chain and the random stream are those of one call)."""
+    left = n_steps
+    while left > 0:
+        m = min(REPORT_CHUNK, left)
+        # the jittered or adapted walkers may make emcee's heuristic condition-number check fire
+        state = sampler.run_mcmc(state, m, progress=False, skip_initial_state_check=True)
+        left -= m
+        if report is not None:
+            report(phase, done + n_steps - left, total)
+    return state
+
+
+def _prune_burn_in(problem, p0, options, seed, report=None) -> np.ndarray:
     """Pre-run with walker pruning; returns the production start.
 
     ``options.prune_rounds`` chunks of ``options.prune_steps`` steps; after each, walkers whose
@@ -30,9 +48,10 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
         nw, ndim, problem.log_posterior_unconstrained, vectorize=True, moves=_moves(options.moves)
     )
     sampler.random_state = rs.get_state()
-    state = sampler.run_mcmc(p0, options.prune_steps, progress=False, skip_initial_state_check=True)
+    total = options.prune_rounds * options.prune_steps
+    state = _run(sampler, p0, options.prune_steps, report, "pruning", 0, total)
     delta = ndim / 2 + 5 * np.sqrt(ndim / 2) + 5
-    for _ in range(options.prune_rounds - 1):
+    for r in range(1, options.prune_rounds):
         coords, lp = state.coords.copy(), state.log_prob.copy()
         good = lp >= lp.max() - delta
         bad = np.flatnonzero(~good)
@@ -42,8 +61,7 @@ def _prune_burn_in(problem, p0, options, seed) -> np.ndarray:
             coords[bad] = coords[src] + 1e-2 * spread * rs.standard_normal((bad.size, ndim))
             lp[bad] = problem.log_posterior_unconstrained(coords[bad])
         state = emcee.State(coords, log_prob=lp, random_state=sampler.random_state)
-        # the jittered copies are independent but may make emcee's heuristic condition-number check fire
-        state = sampler.run_mcmc(state, options.prune_steps, progress=False, skip_initial_state_check=True)
+        state = _run(sampler, state, options.prune_steps, report, "pruning", r * options.prune_steps, total)
     return state.coords
 
 
@@ -54,7 +72,7 @@ def _moves(name: str, mixture: TMixture | None = None):
     return MOVES[name](mixture)
 
 
-def _adapt_mixture(problem, p0, options, seed) -> tuple[TMixture, np.ndarray, np.ndarray]:
+def _adapt_mixture(problem, p0, options, seed, report=None) -> tuple[TMixture, np.ndarray, np.ndarray]:
     """Adaptation phase of the ``mixture`` proposal: ``options.adapt_rounds`` rounds of
     ``options.adapt_steps`` steps (the first with DE/snooker, the next with the mixture fitted so
     far), refitting to the second half of every round. Discarded; deterministic given ``seed``.
@@ -62,12 +80,13 @@ def _adapt_mixture(problem, p0, options, seed) -> tuple[TMixture, np.ndarray, np
     nw, ndim = p0.shape
     rs = np.random.RandomState((seed + 2) % (2**32 - 1))
     mixture, coords = None, p0
-    for _ in range(options.adapt_rounds):
+    total = options.adapt_rounds * options.adapt_steps
+    for r in range(options.adapt_rounds):
         sampler = emcee.EnsembleSampler(
             nw, ndim, problem.log_posterior_unconstrained, vectorize=True, moves=_moves(options.moves, mixture)
         )
         sampler.random_state = rs.get_state()
-        state = sampler.run_mcmc(coords, options.adapt_steps, progress=False, skip_initial_state_check=True)
+        state = _run(sampler, coords, options.adapt_steps, report, "adaptation", r * options.adapt_steps, total)
         rs.set_state(sampler.random_state)
         coords = state.coords
         draws = sampler.get_chain(discard=options.adapt_steps // 2, flat=True)
@@ -75,19 +94,20 @@ def _adapt_mixture(problem, p0, options, seed) -> tuple[TMixture, np.ndarray, np
     return mixture, coords, draws
 
 
-def prepare_ensemble(problem, p0, *, options: SamplerOptions, seed: int):
+def prepare_ensemble(problem, p0, *, options: SamplerOptions, seed: int, report=None):
     """The discarded phases of :func:`run_ensemble` (pruning, then the mixture's adaptation for
     adaptive moves): returns ``(start, mixture, draws)``, the production start, the fitted mixture
     and the last adaptation round's draws it was fitted to (both None without adaptation).
     Deterministic given ``seed``; :func:`sample_posterior` fits a shared proposal to all ensembles'
-    draws."""
+    draws. ``report(phase, steps done, steps of the phase)`` every :data:`REPORT_CHUNK` steps, phase ``"pruning"``
+    or ``"adaptation"``."""
     p0 = np.asarray(p0, dtype=float)
     if not emcee.ensemble.walkers_independent(p0):
         raise ValidationError("initial walkers", "linearly dependent positions", "independent walkers")
-    p0 = _prune_burn_in(problem, p0, options, seed)
+    p0 = _prune_burn_in(problem, p0, options, seed, report)
     if options.moves not in ADAPTIVE_MOVES:
         return p0, None, None
-    mixture, start, draws = _adapt_mixture(problem, p0, options, seed)
+    mixture, start, draws = _adapt_mixture(problem, p0, options, seed, report)
     return start, mixture, draws
 
 

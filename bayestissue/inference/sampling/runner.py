@@ -14,7 +14,7 @@ import numpy as np
 from bayestissue._validation import ValidationError
 from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.proposals import fit_t_mixture
-from bayestissue.inference.sampling.ensemble import EnsembleResult, _stored_run, run_ensemble
+from bayestissue.inference.sampling.ensemble import EnsembleResult, _phase_report, _stored_run, run_ensemble
 from bayestissue.inference.sampling.options import ADAPTIVE_MOVES, SamplerOptions
 from bayestissue.inference.sampling.phases import prepare_ensemble
 from bayestissue.inference.sampling.processes import run_in_processes
@@ -69,7 +69,7 @@ def _task(problem, task, k, p0, seed, options, path, resume, proposal, progress)
     or ``"run"`` (:func:`run_ensemble`), with the problem's evaluations and failures during it."""
     n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
     if task == "prepare":
-        start, _, draws = prepare_ensemble(problem, p0, options=options, seed=seed)
+        start, _, draws = prepare_ensemble(problem, p0, options=options, seed=seed, report=_phase_report(progress, k))
         out = (start, draws)
     else:
         out = run_ensemble(
@@ -94,7 +94,7 @@ def sample_posterior(
     options: SamplerOptions = SamplerOptions(),
     checkpoint: str | Path | None = None,
     resume: bool = False,
-    progress: Callable[[int, int, int], None] | None = None,
+    progress: Callable[[int, int, int, str], None] | None = None,
     rng=None,
 ) -> PosteriorSample:
     """Run ``options.n_ensembles`` independent ensembles, in parallel processes where cores allow.
@@ -112,7 +112,8 @@ def sample_posterior(
     HDF5
         files must not be written by two processes at once).
     resume : continue the runs stored in ``checkpoint``.
-    progress : ``progress(ensemble_id, steps_done, max_steps)``, called in this process.
+    progress : ``progress(ensemble_id, steps_done, steps_total, phase)``, called in this process (phases: see
+        :func:`run_ensemble`).
     rng : seed or Generator (seeds of the ensembles and their initial walkers).
 
     Notes
