@@ -185,19 +185,22 @@ class ConvergenceReport(ParameterChecks):
         if bad_t:
             lines.append(f"tail ESS < {self.ess_min:g} for {bad_t}")
         for e, idx, dlp in self.apart:
-            kind = (
-                f"within 2 of theirs ({dlp:+.1f}): a region as high as theirs (a second mode, or a flat ridge "
-                "not crossed yet; a proposal shared by the ensembles, moves 'mixture' with proposal 'shared', "
-                "can jump between them)"
-                if dlp > -2.0
-                else f"{dlp:+.1f} from theirs: a lower mode it is stuck in"
-            )
+            if dlp > 2.0:
+                kind = f"{dlp:+.1f} above theirs: a higher region the others have not reached"
+            elif dlp > -2.0:
+                kind = (
+                    f"within 2 of theirs ({dlp:+.1f}): a region as high as theirs (a second mode, or a flat ridge "
+                    "not crossed yet; a proposal shared by the ensembles, moves 'mixture' with proposal 'shared', "
+                    "can jump between them)"
+                )
+            else:
+                kind = f"{dlp:+.1f} from theirs: a lower mode it is stuck in"
             names = [self.names[j] for j in idx]
             lines.append(f"ensemble {e} apart from the others in {names}: best log-posterior {kind}")
         if not np.all(self.length_ok):
             short = np.flatnonzero(~self.length_ok)
             need = ", ".join(
-                f"{k}: {self.n_steps[k]} of {self.tau_factor:g} x {np.max(self.tau[k]):.0f} = "
+                f"{k}: {self.n_steps[k]} of {self.tau_factor:g} x {np.max(self.tau[k]):.1f} = "
                 f"{self.tau_factor * np.max(self.tau[k]):.0f} steps"
                 for k in short
             )

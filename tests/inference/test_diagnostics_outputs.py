@@ -79,6 +79,10 @@ def test_ensembles_apart_tells_a_second_mode_from_a_stuck_ensemble():
     assert "lower mode it is stuck in" in text
     same = replace(report, apart=tuple(ensembles_apart(draws, lp))).verdict()
     assert "a region as high as theirs" in same and "lower mode" not in same
+    higher = lp.copy()
+    higher[2] += 30.0  # the lone ensemble found a higher region: not "within 2" of the others
+    text = replace(report, apart=tuple(ensembles_apart(draws, higher))).verdict()
+    assert "above theirs: a higher region the others have not reached" in text and "within 2" not in text
     with pytest.raises(ValueError, match="log_prob"):
         ensembles_apart(draws, lp[:, :, :4])
 
