@@ -7,7 +7,7 @@ Examples::
     bayestissue stereology lines data/stereology_lines.csv
     bayestissue stereology rose data/stereology_lines.csv --n 8 15
     bayestissue stereology replicates data/stereology_counts.csv data/stereology_lines.csv \\
-        --n-boot 1000 --split paper --out R.csv
+        --n-boot 1000 --split paper --out runs/R.csv
 """
 
 from __future__ import annotations

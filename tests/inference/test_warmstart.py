@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayestissue.inference import fit_least_squares, fit_multistart
-from bayestissue.inference.warmstart import cluster_optima, latin_hypercube
+from bayestissue.inference.warmstart import cluster_optima, latin_hypercube, wald_interval
 from tests.inference.linear_model import linear_gaussian_posterior, linear_gaussian_problem
 
 
@@ -21,6 +21,21 @@ def test_least_squares_and_wald_recover_the_closed_form(space):
     assert res.history_cost[-1] == pytest.approx(res.cost, rel=1e-9)
     z = 1.6448536269514722
     np.testing.assert_allclose(res.wald_upper - res.x, z * np.sqrt(np.diag(res.cov)), rtol=1e-10)
+
+
+def test_wald_interval_of_a_positive_parameter_is_taken_in_log_space():
+    """The linear-model box straddles 0 (linear intervals, above); a positive box gives the log-space interval:
+    positive, symmetric in log, and equal to the linear one to first order when sd << the estimate."""
+    z = 1.6448536269514722
+    lo, hi = wald_interval([2.18, 0.5, -3.0], [0.002, 0.4, 1.0], z, positive=np.array([True, True, False]))
+    assert np.all(lo[:2] > 0)
+    np.testing.assert_allclose(np.log(hi[:2]) - np.log([2.18, 0.5]), np.log([2.18, 0.5]) - np.log(lo[:2]))
+    # equal to first order; the second-order term (z sd)^2 / (2 x) is 2.5e-6 here
+    np.testing.assert_allclose([lo[0], hi[0]], [2.18 - z * 0.002, 2.18 + z * 0.002], rtol=2e-6)
+    np.testing.assert_allclose([lo[2], hi[2]], [-3.0 - z, -3.0 + z])
+    # an estimate at its lower bound with a huge sd (mu = 0.001001, sd 211 kPa): [0, inf], never negative
+    lo, hi = wald_interval([0.001001], [211.0], z, positive=np.array([True]))
+    assert lo[0] == 0.0 and hi[0] == np.inf
 
 
 def test_active_bound_is_reported():
