@@ -15,7 +15,7 @@ import sys
 
 from bayestissue import __version__
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "plain"]
 
 #: Sub-command modules, in the order ``--help`` lists them.
 _COMMANDS = ("simulate", "fit", "stereology", "micrographs")
@@ -27,8 +27,17 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+def plain(text: str) -> str:
+    """A docstring's text for --help: without reStructuredText's double backquotes."""
+    return text.replace("``", "")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="bayestissue", description=__doc__.splitlines()[0])
+    parser = _Parser(
+        prog="bayestissue",
+        description="Bayesian calibration of soft-tissue models, stereology and micrographs; "
+        "'bayestissue <command> --help' for each command.",
+    )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress at INFO level")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from bayestissue._validation import ValidationError
+from bayestissue.cli import plain
 from bayestissue.io.micrographs import read_micrographs, write_micrographs, write_truth
 from bayestissue.io.stereology_files import write_line_system
 from bayestissue.io.tables import write_table
@@ -55,22 +56,38 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "micrographs",
         help="synthetic trichrome stacks; register, segment, count and trace micrographs",
-        description=__doc__.splitlines()[0],
+        description=plain(__doc__.splitlines()[0]),
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=__doc__.split("Examples::", 1)[1],
+        epilog=plain(__doc__.split("Examples::", 1)[1]),
     )
     sub = p.add_subparsers(dest="micrographs_command", required=True)
     g = sub.add_parser("phantom", help="write a synthetic serial-section stack and its truth")
     g.add_argument("outdir", help="folder for the sections and truth.json (created)")
     g.set_defaults(outputs={"OUTDIR": ("outdir", "dir")})
-    g.add_argument("--seed", type=int, default=1)
-    g.add_argument("--extent-um", type=float, nargs=3, default=(60.0, 100.0, 100.0),
-                   metavar=("Z", "Y", "X"))  # fmt: skip
-    g.add_argument("--voxel-um", type=float, default=1.0)
-    g.add_argument("--smc-fraction", type=float, default=0.589, help="SMC of tissue")
-    g.add_argument("--section-thickness-um", type=float, default=5.0)
-    g.add_argument("--axis", choices=("z", "y", "x"), default="z", help="sections normal to")
-    g.add_argument("--format", choices=("png", "tiff"), default="png")
+    g.add_argument("--seed", type=int, default=1, help="phantom seed (default 1); same seed, same stack")
+    g.add_argument(
+        "--extent-um",
+        type=float,
+        nargs=3,
+        default=(60.0, 100.0, 100.0),
+        metavar=("Z", "Y", "X"),
+        help="phantom size in um (default 60 100 100)",
+    )
+    g.add_argument("--voxel-um", type=float, default=1.0, help="voxel = pixel size in um (default 1)")
+    g.add_argument(
+        "--smc-fraction",
+        type=float,
+        default=0.589,
+        help="smooth-muscle volume fraction of the tissue without cavities (default 0.589, the paper's)",
+    )
+    g.add_argument("--section-thickness-um", type=float, default=5.0, help="section thickness in um (default 5)")
+    g.add_argument("--axis", choices=("z", "y", "x"), default="z", help="sections normal to this axis (default z)")
+    g.add_argument(
+        "--format",
+        choices=("png", "tiff"),
+        default="png",
+        help="one PNG per section, or one multi-page TIFF (default png)",
+    )
     a = sub.add_parser("analyse", help="run the pipeline on a folder or multi-page TIFF")
     a.add_argument("source", help="folder of PNG/TIFF sections or a multi-page TIFF")
     a.add_argument("--pixel-size-um", type=float, required=True)
@@ -119,7 +136,7 @@ def _run_analyse(args) -> int:
     imgs = check_rgb_stack(images)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with tqdm(total=len(imgs) + 2, file=sys.stderr, disable=args.quiet, desc="micrographs") as bar:
+    with tqdm(total=len(imgs) + 2, file=sys.stderr, disable=args.quiet, desc="micrographs", unit="step") as bar:
         res = analyse_micrographs(
             imgs,
             pixel_um=args.pixel_size_um,
@@ -129,6 +146,7 @@ def _run_analyse(args) -> int:
             method=args.method,
             rng=args.seed,
             progress=bar.update,
+            stage=bar.set_description,
         )
     meta = {"source": str(args.source), "pixel_um": args.pixel_size_um, "seed": args.seed}
     write_grid_counts(out / "point_counts.csv", res.grid, pixel_um=args.pixel_size_um, meta=meta)

@@ -14,8 +14,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import numpy as np
+
+from bayestissue.cli import plain
 
 __all__ = ["register", "run"]
 
@@ -24,9 +27,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "stereology",
         help="volume fractions, length density, rose of directions, replicate tables",
-        description=__doc__.splitlines()[0],
+        description=plain(__doc__.splitlines()[0]),
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=__doc__.split("Examples::", 1)[1],
+        epilog=plain(__doc__.split("Examples::", 1)[1]),
     )
     sub = p.add_subparsers(dest="stereology_command", required=True)
 
@@ -170,16 +173,20 @@ def _replicates(args) -> int:
 
     pc = PointCounts.from_file(args.counts)
     ls = LineSystem.from_file(args.lines)
-    cols, info = stereology_replicates(
-        pc,
-        ls,
-        n_boot=args.n_boot,
-        split=args.split,
-        method=args.directions,
-        n=args.rose_n,
-        fractions=args.fractions,
-        rng=args.seed,
-    )
+    from tqdm import tqdm
+
+    with tqdm(total=args.n_boot, unit="replicate", desc="direction bootstrap", file=sys.stderr) as bar:
+        cols, info = stereology_replicates(
+            pc,
+            ls,
+            n_boot=args.n_boot,
+            split=args.split,
+            method=args.directions,
+            n=args.rose_n,
+            fractions=args.fractions,
+            rng=args.seed,
+            progress=lambda done, total: bar.update(done - bar.n),
+        )
     meta = {
         "inputs": f"{args.counts}, {args.lines}",
         "split": args.split,

@@ -110,7 +110,9 @@ def fit_fibre_directions(
     return np.array([c["vector"] for c in top]), L / L.sum()
 
 
-def direction_bootstrap(lines: LineSystem, *, method: str = "watson", n: int = 15, n_boot: int = 300, rng=None) -> dict:
+def direction_bootstrap(
+    lines: LineSystem, *, method: str = "watson", n: int = 15, n_boot: int = 300, rng=None, progress=None
+) -> dict:
     """Point estimate of the three fibre axes and their cell-bootstrap replicates.
 
     Returns
@@ -120,7 +122,7 @@ def direction_bootstrap(lines: LineSystem, *, method: str = "watson", n: int = 1
     switching, signs a . axes_k >= 0), ``replicate_shares`` (n_boot, 3) permuted alike, ``cone_deg``
     (3,) 95 % cone half-angles and ``angle_to_paper_deg`` (3,); ``lengths_um`` (3,) the families'
     line lengths (share x total), ``replicate_lengths_um`` (n_boot, 3) and their 95 % intervals
-    ``length_ci_um`` (2, 3).
+    ``length_ci_um`` (2, 3). ``progress(done, n_boot)`` after each replicate (a refit of the directions).
     """
     rng = np.random.default_rng(rng)
     axes, shares = fit_fibre_directions(lines, method=method, n=n, rng=rng)
@@ -133,7 +135,7 @@ def direction_bootstrap(lines: LineSystem, *, method: str = "watson", n: int = 1
         totals.append(lines.lengths[idx].sum())
         return fit_fibre_directions(lines, idx, method=method, n=n, init_axes=axes, rng=rng)
 
-    rep_axes, rep_shares = bootstrap_cells(lines.cell, est, n_boot=n_boot, rng=rng)
+    rep_axes, rep_shares = bootstrap_cells(lines.cell, est, n_boot=n_boot, rng=rng, progress=progress)
     rep_axes, rep_order = align_axes(rep_axes, axes)
     rep_shares = np.take_along_axis(rep_shares, rep_order, axis=1)
     rep_lengths = rep_shares * np.asarray(totals)[:, None]
@@ -241,9 +243,11 @@ def stereology_replicates(
     n: int = 15,
     fractions: str = "parametric",
     rng=None,
+    progress=None,
     **ce_kwargs,
 ) -> tuple[dict[str, np.ndarray], dict]:
-    """Joint replicate table of volume fractions and fibre directions (see the module docstring).
+    """Joint replicate table of volume fractions and fibre directions (see the module docstring);
+    ``progress(done, n_boot)`` after each direction replicate (the slow part).
 
     Returns
     -------
@@ -260,7 +264,7 @@ def stereology_replicates(
                 f"one of the reference components {list(counts.reference_components)}",
             )
     fr = fraction_replicates(counts, n_boot=n_boot, kind=fractions, rng=rng, **ce_kwargs)
-    dirs = direction_bootstrap(lines, method=method, n=n, n_boot=n_boot, rng=rng)
+    dirs = direction_bootstrap(lines, method=method, n=n, n_boot=n_boot, rng=rng, progress=progress)
     cols = replicate_table(
         fr,
         dirs["replicate_axes"],

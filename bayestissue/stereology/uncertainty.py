@@ -195,6 +195,7 @@ def bootstrap_cells(
     *,
     n_boot: int = 500,
     rng=None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Bootstrap over whole traced cells: resample cells with replacement and refit.
 
@@ -204,6 +205,7 @@ def bootstrap_cells(
     estimator : ``f(segment_indices) -> (axes (k, 3), shares (k,))`` fitting the chosen segments
         (with repeats, so resampled cells count as often as drawn).
     n_boot : number of replicates. rng : seed or Generator.
+    progress : ``progress(done, n_boot)`` after each replicate.
 
     Returns
     -------
@@ -217,12 +219,15 @@ def bootstrap_cells(
     members = [np.flatnonzero(inv == c) for c in range(cells.size)]
     rng = np.random.default_rng(rng)
     axes, shares = [], []
-    for _ in range(_n_boot(n_boot)):
+    total = _n_boot(n_boot)
+    for k in range(total):
         pick = rng.integers(0, cells.size, size=cells.size)
         idx = np.concatenate([members[c] for c in pick])
         a, s = estimator(idx)
         axes.append(a)
         shares.append(s)
+        if progress is not None:
+            progress(k + 1, total)
     return np.asarray(axes), np.asarray(shares)
 
 

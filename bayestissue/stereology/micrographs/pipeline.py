@@ -68,6 +68,7 @@ def analyse_micrographs(
     method: str = "deconvolution",
     rng=None,
     progress=None,
+    stage=None,
 ) -> MicrographAnalysis:
     """Run the pipeline: register, segment, count the point grid on a SURS sample, trace cells.
 
@@ -79,7 +80,9 @@ def analyse_micrographs(
         (random start).
     method : colour segmentation method ("deconvolution" or "lab").
     rng : seed or Generator (SURS start, grid offsets, k-means starts).
-    progress : optional callable(n_done) (e.g. ``tqdm.update``).
+    progress : optional callable(n_done) (e.g. ``tqdm.update``): 1 per registered section (n - 1), then 1 after
+        segmentation, counting and tracing (n + 2 in all).
+    stage : optional callable(name) at the start of each stage (e.g. ``tqdm.set_description``).
     """
     rng = np.random.default_rng(rng)
     if pixel_um is None:
@@ -91,10 +94,14 @@ def analyse_micrographs(
     grid_spacing_um = check_positive("grid_spacing_um", grid_spacing_um)
     imgs = check_rgb_stack(images)
     step = progress or (lambda k: None)
+    say = stage or (lambda name: None)
+    say("registering sections")
     reg = register_stack(imgs, progress=step)
+    say("segmenting colours")
     seg = segment_stack(reg.images, method=method, valid=reg.valid)
     sens = threshold_sensitivity(reg.images, seg, valid=reg.valid)
     step(1)
+    say("counting the point grid")
     sections = surs_indices(len(imgs), min(int(period), len(imgs)), rng=rng)
     grid = count_points(
         seg.labels,
@@ -104,6 +111,7 @@ def analyse_micrographs(
         rng=rng,
     )
     step(1)
+    say("tracing cells")
     traced = trace_cells(seg.labels == SMC, spacing_um=(thickness_um, pixel_um, pixel_um), valid=reg.valid, rng=rng)
     step(1)
     return MicrographAnalysis(reg, seg, sens, grid, traced, pixel_um, thickness_um)
