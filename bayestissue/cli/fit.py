@@ -177,7 +177,8 @@ def _report(outcome, config, names, out, no_figures) -> None:
     ms = outcome.multistart
     print(
         f"multi-start: {len(ms.results)} starts, best cost {ms.best.cost:.5g}, "
-        f"{int(ms.labels.max()) + 1} cost clusters, {ms.time_s:.1f} s"
+        f"{int(ms.labels.max()) + 1} cost clusters, {ms.time_s:.1f} s; the table's least-squares column is the best "
+        f"fit (cost {outcome.best.cost:.5g}, active bounds: {', '.join(outcome.best.active_names()) or 'none'})"
     )
     print(table_markdown(outcome.table, title=f"Calibration on {names}"))
     if outcome.report is not None:
