@@ -57,6 +57,19 @@ from bayestissue.workflows.run_directory import open_run_directory, run_manifest
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _progress_lines(name: str, every: int = 1000):
+    """A sampling progress callback for logs: one line per ensemble and phase every ``every`` steps (and at the
+    end of each phase), instead of a bar."""
+    last = {}
+
+    def progress(k, n, total, phase="sampling"):
+        if n // every > last.get((k, phase), -1) or n == total:
+            last[(k, phase)] = n // every
+            print(f"  {name}: ensemble {k} {phase} {n}/{total} steps", flush=True)
+
+    return progress
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     mode = ap.add_mutually_exclusive_group()
@@ -89,7 +102,14 @@ def main(argv=None) -> int:
         prov = provenance(seed=SEED, data_paths=[Path(f) for e in exps for f in (e.source, e.data_file) if f])
         prov["study"] = f"studies/calibrate.py --{key}"
         with open_run_directory(args.runs / name, run_manifest(config, exps), overwrite=True) as run_dir:
-            outcome = run_calibration(exps, config, out_dir=run_dir.path, provenance=prov)
+            outcome = run_calibration(
+                exps,
+                config,
+                out_dir=run_dir.path,
+                provenance=prov,
+                say=lambda line, name=name: print(f"  {name}: {line}", flush=True),
+                progress=_progress_lines(name),
+            )
         title = f"Calibration on {' + '.join(exp_names)}, {model} model ({key} setting)"
         md = table_markdown(outcome.table, title=title)
         (args.out / f"calibration_summary_{name}.md").write_text(md)
