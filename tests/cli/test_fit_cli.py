@@ -35,7 +35,7 @@ def test_fit_two_parameters_writes_results(tmp_path, capsys):
     import re
 
     # the verdict says how far each short ensemble is from the length criterion
-    assert re.search(r"shorter than 50 tau .*\(0: 300 of 50 x \d+ = \d+ steps", text), text
+    assert re.search(r"shorter than 50 tau .*\(0: 300 of 50 x [\d.]+ = \d+ steps", text), text
     cols, meta = read_table(out / "summary.csv", numeric=False, required=("parameter", "ls_estimate", "median"))
     assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
     assert "ginf1=125" in meta["parameters_fixed"]
