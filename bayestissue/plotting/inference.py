@@ -38,48 +38,50 @@ def _display(problem, values, idx):
 
 
 def plot_corner(problem, draws, *, least_squares=None, references=None, max_points=20000):
-    """Corner plot of the posterior draws ``(n, ndim)`` (natural units).
+    """Corner plot of the posterior draws ``(n, ndim)`` (natural units): 50 % and 90 % contours (smoothed by one
+    bin), marginals with their 5/50/95 % quantiles, and the reference values marked as :mod:`.style` says.
 
-    ``least_squares`` (LeastSquaresResult) is marked in blue; ``references`` maps a label
-    (``paper``, ``generating``) to full material vectors (the paper's order, all parameters), marked
-    in red / green.
+    ``least_squares`` (LeastSquaresResult) and ``references`` (a label such as ``paper`` or ``generating`` -> a
+    full material vector in the paper's order) are drawn as lines across every panel.
     """
     import corner
     import matplotlib.pyplot as plt
+
+    from bayestissue.plotting.style import FONT, reference_handles, reference_style, tidy_axes
 
     draws = np.asarray(draws, dtype=float)
     if draws.shape[0] > max_points:
         draws = draws[np.linspace(0, draws.shape[0] - 1, max_points).astype(int)]
     idx = list(range(problem.ndim))
     data, labels = _display(problem, draws, idx)
-    truths = None
-    if least_squares is not None:
-        full = problem.canonical(problem.nuisance_estimate(least_squares.x))
-        truths, _ = _display(problem, full[None, :], idx)
-        truths = truths[0]
-    fig = plt.figure(figsize=(1.6 * len(idx), 1.6 * len(idx)))
+    fig = plt.figure(figsize=(1.7 * len(idx) + 1, 1.7 * len(idx) + 1))
     corner.corner(
         data,
         labels=labels,
-        truths=truths,
-        truth_color="tab:blue",
         fig=fig,
         quantiles=(0.05, 0.5, 0.95),
         plot_datapoints=False,
+        plot_density=False,
         fill_contours=True,
+        smooth=1.0,
         levels=(0.5, 0.9),
-        label_kwargs={"fontsize": 8},
+        max_n_ticks=3,
+        label_kwargs={"fontsize": FONT["label"]},
+        contourf_kwargs={"colors": ["white", "0.8", "0.55"]},
     )
+    marks = {}
+    if least_squares is not None:
+        marks["least squares"] = problem.canonical(problem.nuisance_estimate(least_squares.x))
     names = problem.material.names
-    colors = {"paper": "tab:red", "generating": "tab:green"}
     for label, vec in (references or {}).items():
         vals = dict(zip(names, np.asarray(vec, dtype=float), strict=False))
-        full = np.array([vals.get(n, np.nan) for n in problem.names])
-        shown, _ = _display(problem, full[None, :], idx)
-        corner.overplot_lines(fig, shown[0], color=colors.get(label, "k"), ls="--", lw=1)
-    handles = [plt.Line2D([], [], color="tab:blue", label="least squares")]
-    handles += [plt.Line2D([], [], color=colors.get(k, "k"), ls="--", label=k) for k in (references or {})]
-    fig.legend(handles=handles, loc="upper right", fontsize=10, frameon=False)
+        marks[label] = np.array([vals.get(n, np.nan) for n in problem.names])
+    for label in sorted(marks, key=lambda k: reference_style(k)["zorder"]):
+        shown, _ = _display(problem, marks[label][None, :], idx)
+        corner.overplot_lines(fig, shown[0], **reference_style(label))
+    tidy_axes(fig)
+    fig.legend(handles=reference_handles(list(marks)), loc="upper right", fontsize=FONT["legend"] + 2, frameon=False)
+    fig.subplots_adjust(bottom=0.08, left=0.08)
     return fig
 
 
@@ -170,8 +172,8 @@ def plot_predictive(time_s, observed, model_draws, *, least_squares_fit=None, no
         ax.fill_between(time_s, q[1] - ref, q[3] - ref, color="tab:orange", alpha=0.7, lw=0, label="model 50 %")
         if noisy_draws is not None:
             qn = np.quantile(noisy_draws, [0.05, 0.95], axis=0)
-            ax.plot(time_s, qn[0] - ref, ":", color="tab:red", lw=1, label="new data 90 %")
-            ax.plot(time_s, qn[1] - ref, ":", color="tab:red", lw=1)
+            ax.plot(time_s, qn[0] - ref, ":", color="tab:purple", lw=1, label="new data 90 %")
+            ax.plot(time_s, qn[1] - ref, ":", color="tab:purple", lw=1)
         ax.plot(time_s, observed - ref, ".", color="k", ms=2.5, label="data")
         if least_squares_fit is not None:
             ax.plot(time_s, least_squares_fit - ref, "-", color="tab:blue", lw=1, label="least squares")
@@ -219,24 +221,30 @@ def plot_ls_history(result, *, ax=None, title=None):
     Figs. 9 and 11)."""
     import matplotlib.pyplot as plt
 
+    from bayestissue.plotting.style import FONT
+
     if ax is None:
-        _, ax = plt.subplots(figsize=(7, 4))
+        _, ax = plt.subplots(figsize=(8.5, 4))
     h = np.abs(result.history_scaled)
     it = np.arange(h.shape[0])
     styles = ["-", "--", ":", "-."]
     for j, name in enumerate(result.names):
         ax.semilogy(it, np.maximum(h[:, j], 1e-12), styles[j % 4], lw=1.2, label=name)
-    ax.set_xlabel("iteration")
-    ax.set_ylabel("|scaled parameter|")
+    ax.set_xlabel("iteration", fontsize=FONT["label"])
+    ax.set_ylabel("|parameter / initial guess|", fontsize=FONT["label"])
     if title:
-        ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=7, ncol=2)
+        ax.set_title(title, fontsize=FONT["title"])
+    # beside the axes, never over the curves
+    ax.legend(fontsize=FONT["legend"], loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    ax.figure.tight_layout()
     return ax.figure
 
 
 def plot_waterfall(costs, *, labels=None, ax=None, title=None):
     """Final costs of a multi-start least squares, sorted (a *waterfall*); colour = cluster label."""
     import matplotlib.pyplot as plt
+
+    from bayestissue.plotting.style import FONT
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 3.5))
@@ -248,10 +256,13 @@ def plot_waterfall(costs, *, labels=None, ax=None, title=None):
         ax.set_yscale("log")
     else:
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
-    ax.set_xlabel("start (sorted by final cost)")
-    ax.set_ylabel("final cost F")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("start (sorted by final cost)", fontsize=FONT["label"])
+    ax.set_ylabel("final cost F", fontsize=FONT["label"])
     if title:
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title, fontsize=FONT["title"], pad=12)  # above the axis' offset text
     ax.figure.tight_layout()
     return ax.figure
 
