@@ -86,8 +86,10 @@ def plot_corner(problem, draws, *, least_squares=None, references=None, max_poin
 
 
 def plot_traces(sample, *, max_walkers: int = 8):
-    """Traces of every sampled parameter: a few walkers of every ensemble, burn-in shaded."""
+    """Traces of every sampled parameter: a few walkers of every ensemble, burn-in marked."""
     import matplotlib.pyplot as plt
+
+    from bayestissue.plotting.style import FONT, tidy_axes
 
     problem = sample.problem
     ndim = problem.ndim
@@ -104,14 +106,20 @@ def plot_traces(sample, *, max_walkers: int = 8):
         for j in range(ndim):
             ax = axes[j]
             ax.plot(steps, vals[:, :max_walkers, j], color=colors[k], lw=0.4, alpha=0.6)
+            # the end of this ensemble's discarded burn-in (2 tau), visible however long the run
+            ax.axvline(ens.burn_in, color=colors[k], ls="--", lw=1.2)
             if k == 0:
-                ax.set_ylabel(labels[j], fontsize=8)
+                ax.set_ylabel(labels[j], fontsize=FONT["label"] - 1)
                 ax.axvspan(0, ens.burn_in, color="0.9", zorder=-1)
     for ax in axes[ndim:]:
         ax.set_visible(False)
     for ax in axes[-ncol:]:
-        ax.set_xlabel("step")
-    fig.suptitle("traces (colour = ensemble; shaded: discarded burn-in of ensemble 0)", fontsize=9)
+        ax.set_xlabel("step", fontsize=FONT["label"])
+    tidy_axes(fig)
+    fig.suptitle(
+        "traces (colour = ensemble; dashed: end of each ensemble's discarded burn-in, shaded for ensemble 0)",
+        fontsize=FONT["title"] - 1,
+    )
     fig.tight_layout()
     return fig
 
