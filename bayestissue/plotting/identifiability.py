@@ -46,7 +46,10 @@ def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, thr
     ``profiles`` maps a label (``"T1"``) to a list of ProfileResult (any order; matched by
     ``name``).
     """
-    fig, axes = _grid(len(names))
+    from bayestissue.paper import PARAM_UNITS
+    from bayestissue.plotting.style import FONT
+
+    fig, axes = _grid(len(names), ncols=min(len(names), 4), size=(3.4, 3.4))
     for j, name in enumerate(names):
         ax = axes[j]
         for k, (label, prs) in enumerate(profiles.items()):
@@ -65,11 +68,16 @@ def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, thr
         ax.axhline(threshold, color="k", lw=0.8, ls="--")
         ax.set_xscale("log")
         ax.set_ylim(-0.5, ymax)
-        ax.set_title(name, fontsize=9)
-        ax.tick_params(labelsize=7)
-        ax.legend(fontsize=6, loc="upper center")
-    axes[0].set_ylabel(r"$\Delta\chi^2$ (profile)")
-    fig.suptitle(r"Profile likelihoods (dashed: $\chi^2_{1,0.95}$ = 3.84)", fontsize=10)
+        unit = PARAM_UNITS.get(name.rstrip("0123456789"), "")
+        ax.set_xlabel(f"{name} ({unit})" if unit and unit != "1" else name, fontsize=FONT["label"])
+        ax.tick_params(labelsize=FONT["tick"])
+        # below the panel: the identifiability class of each curve, never over the curves
+        ax.legend(fontsize=FONT["legend"] - 1, loc="upper center", bbox_to_anchor=(0.5, -0.28), frameon=False)
+    axes[0].set_ylabel(r"$\Delta\chi^2$ (profile)", fontsize=FONT["label"])
+    fig.suptitle(
+        r"Profile likelihoods (dots: optimum of each analysis; dashed: $\chi^2_{1,0.95}$ = 3.84)",
+        fontsize=FONT["title"],
+    )
     fig.tight_layout()
     return fig
 
