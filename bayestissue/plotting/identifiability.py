@@ -255,12 +255,15 @@ def plot_widths(widths: Mapping[str, np.ndarray], names: Sequence[str], *, ax=No
 def plot_correlations(corr: dict, names, *, columns: dict | None = None):
     """Posterior correlation matrices side by side (one panel per label); ``columns[label]`` selects the
     parameters shown (e.g. the sampled, untied ones)."""
-    fig, axes = plt.subplots(1, len(corr), figsize=(5 * len(corr), 4.6))
+    from bayestissue.plotting.style import FONT
+
+    # constrained layout keeps every tick label (gamma1 was clipped between the panels) and the colour bar apart
+    fig, axes = plt.subplots(1, len(corr), figsize=(4.6 * len(corr) + 1, 4.4), layout="constrained")
     for ax, (lab, c) in zip(np.atleast_1d(axes), corr.items(), strict=True):
         js = list(range(len(names))) if columns is None else columns[lab]
         im = ax.imshow(np.asarray(c)[np.ix_(js, js)], vmin=-1, vmax=1, cmap="RdBu_r")
-        ax.set_xticks(range(len(js)), [names[j] for j in js], rotation=90, fontsize=7)
-        ax.set_yticks(range(len(js)), [names[j] for j in js], fontsize=7)
-        ax.set_title(f"{lab}: posterior correlation (scaled box)", fontsize=9)
-    fig.colorbar(im, ax=axes, shrink=0.8)
+        ax.set_xticks(range(len(js)), [names[j] for j in js], rotation=90, fontsize=FONT["tick"])
+        ax.set_yticks(range(len(js)), [names[j] for j in js], fontsize=FONT["tick"])
+        ax.set_title(f"{lab}: posterior correlation\n(scaled box)", fontsize=FONT["title"] - 1)
+    fig.colorbar(im, ax=axes, shrink=0.8, label="correlation")
     return fig
