@@ -47,7 +47,7 @@ def test_figures_are_built_and_labelled():
         plot_rate_study([0.1, 1, 10], {"beta2": np.array([1.0, 2.0, np.inf])}, marks={"beta2": np.array([1, 0, -1])}),
     ]
     assert [len([ax for ax in f.axes if ax.get_visible()]) for f in figs] == [3, 1, 1, 1, 3, 1, 1]
-    assert figs[0].axes[0].get_title() == "a"
+    assert figs[0].axes[0].get_xlabel() == "a"  # the parameter (with its unit, when it has one)
     assert "100 %" in figs[5].axes[0].get_title()
     for f in figs:
         plt.close(f)
