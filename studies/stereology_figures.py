@@ -81,7 +81,10 @@ def main(argv=None) -> int:
     for ax, n in zip(axes, (8, 15), strict=True):
         roses[n] = rose_of_directions(d, w, n=n)
         plot_rose_histogram(roses[n], top=preferential_directions(roses[n]), ax=ax)
-    fig.suptitle("synthetic replica: line length per equal-area cell (circles: top-3 directions)")
+    fig.suptitle(
+        "synthetic replica: line length per equal-area cell (circles: the top-3 directions' longest cells; +: their "
+        "refined axes)\nan axis near the equator fills cells at azimuth a and a + 180 alike: both belong to it"
+    )
     fig.tight_layout()
     fig.savefig(args.out / "stereology_rose_hist.png", dpi=130)
     plt.close(fig)
@@ -112,7 +115,7 @@ def main(argv=None) -> int:
     plot_lambert_directions(tops, cones_by_n=cones, reference=PAPER_DIRECTIONS, ax=axes[0])
     axes[0].set_title(
         "rose top-3 per n (matched to v1, v2, v3) with 95 % cell-bootstrap cones\n"
-        "(wide cones: the top cells switch family between replicates)",
+        "(open ring: cone wider than 40 deg, the top cells switch family between replicates; table in the report)",
         fontsize=9,
         pad=14,
     )
@@ -157,7 +160,7 @@ def main(argv=None) -> int:
     md.append("")
     (args.out / "stereology_directions_vs_n.md").write_text("\n".join(md) + "\n")
     print("\n".join(md))
-    print(f"wrote figures/stereology_*.png and stereology_directions_vs_n.md in {time.perf_counter() - t0:.1f} s")
+    print(f"wrote {args.out}/stereology_*.png and stereology_directions_vs_n.md in {time.perf_counter() - t0:.1f} s")
     return 0
 
 

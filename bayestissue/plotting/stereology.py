@@ -29,7 +29,8 @@ def plot_rose_histogram(rose: EqualAreaRose, *, top: list[dict] | None = None, a
 
     With sin(elevation) on the vertical axis every cell of the n x n partition is a rectangle of the
     same area, so the colour is directly comparable between cells. ``top``: preferential directions
-    to mark (:func:`bayestissue.stereology.rose.preferential_directions`).
+    to mark (:func:`bayestissue.stereology.rose.preferential_directions`): a circle on each one's longest cell,
+    a cross on its refined axis.
     """
     fig, ax = _fig_ax(ax)
     n = rose.n
@@ -38,10 +39,14 @@ def plot_rose_histogram(rose: EqualAreaRose, *, top: list[dict] | None = None, a
     m = ax.pcolormesh(az, z, rose.lengths, cmap="viridis", shading="flat")
     fig.colorbar(m, ax=ax, label="line length per cell (um)")
     if top:
+        # the circle marks the direction's first (longest) cell; "+" its refined axis, which for a mode near the
+        # equator may lie at az + 180 (the same undirected axis), where a circle looked misplaced
         for c in top:
-            a, e = c["azimuth"], np.sin(np.radians(c["elevation"]))
-            ax.plot(a, e, "o", mfc="none", mec="w", ms=10, mew=1.5)
-            ax.annotate(str(c["rank"]), (a, e), xytext=(6, 4), textcoords="offset points", color="w")
+            a, e = c["cell_azimuth"], np.sin(np.radians(c["cell_elevation"]))
+            ax.plot(a, e, "o", mfc="none", mec="w", ms=12, mew=1.8)
+            dx = -16 if a > 330 else 7  # keep the rank inside the axes at the right edge
+            ax.annotate(str(c["rank"]), (a, e), xytext=(dx, 5), textcoords="offset points", color="w", fontsize=11)
+            ax.plot(c["azimuth"] % 360, np.sin(np.radians(abs(c["elevation"]))), "+", color="w", ms=8, mew=1.5)
     ax.set_xlim(0, 360)
     ax.set_ylim(0, 1)
     ax.set_xticks(np.arange(0, 361, 60))
@@ -86,12 +91,19 @@ def plot_rose_3d(rose: EqualAreaRose, *, ax=None, sub: int = 4):
     return fig
 
 
+#: Cones wider than this (degrees) are not outlined on the Lambert plot: they mean the bootstrap's top cells switch
+#: family between replicates, and their outlines (up to 150 deg) ran off the plot across every other direction.
+MAX_CONE_DEG = 40.0
+
+
 def _lambert_frame(ax):
     t = np.linspace(0, 2 * np.pi, 361)
     for el in (0, 30, 60):
         r = np.sqrt(2 * (1 - np.sin(np.radians(el))))
         ax.plot(r * np.cos(t), r * np.sin(t), color="0.8", lw=0.8, zorder=0)
-        ax.text(r * np.cos(np.radians(-80)), r * np.sin(np.radians(-80)), f"el {el}", fontsize=7, color="0.5")
+        # on the 255 deg ray, between the azimuth labels 240 and 270 (at -80 deg "el 0" ran into "270")
+        ax.text(r * np.cos(np.radians(255)), r * np.sin(np.radians(255)), f"el {el}", fontsize=7, color="0.45",
+                ha="center", va="center", bbox={"fc": "white", "ec": "none", "pad": 0.5})  # fmt: skip
     for a in range(0, 360, 30):
         ax.plot(
             [0, np.sqrt(2) * np.cos(np.radians(a))],
@@ -102,8 +114,8 @@ def _lambert_frame(ax):
         )
         ax.text(1.5 * np.cos(np.radians(a)), 1.5 * np.sin(np.radians(a)), f"{a}", ha="center", va="center", fontsize=7)
     ax.set_aspect("equal")
-    ax.set_xlim(-1.7, 1.7)
-    ax.set_ylim(-1.7, 1.7)
+    ax.set_xlim(-1.85, 1.85)  # room for cones (at most MAX_CONE_DEG wide) that cross the rim
+    ax.set_ylim(-1.85, 1.85)
     ax.axis("off")
 
 
@@ -149,7 +161,9 @@ def plot_lambert_directions(directions_by_n: dict, *, cones_by_n: dict | None = 
             ls = _RANK_STYLES[r % 3]
             ax.plot([0, p[0]], [0, p[1]], ls=ls, color=col, lw=1.2, label=f"{key}" if r == 0 else None)
             ax.plot(*p, "o", color=col, ms=4)
-            if cones_by_n is not None and key in cones_by_n:
+            if cones_by_n is not None and key in cones_by_n and cones_by_n[key][r] > MAX_CONE_DEG:
+                ax.plot(*p, "o", mfc="white", mec=col, ms=7, mew=1.5)  # an open ring: cone too wide to draw
+            elif cones_by_n is not None and key in cones_by_n:
                 out = _cone_outline(v, cones_by_n[key][r])
                 pts = lambert_project(out if ref is not None else to_upper_hemisphere(out), upper=False)
                 jump = np.r_[False, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 0.3]
@@ -162,7 +176,8 @@ def plot_lambert_directions(directions_by_n: dict, *, cones_by_n: dict | None = 
         ax.plot(xy[:, 0], xy[:, 1], "kx", ms=9, mew=2, label="paper v1-v3")
     ax.legend(loc="upper left", fontsize=7, title="n", title_fontsize=7, frameon=False, bbox_to_anchor=(-0.02, 1.02))
     ax.set_title(
-        "Lambert equal-area about z (rim: elevation 0)\nrank/family 1 solid, 2 dashed, 3 dash-dotted",
+        "Lambert equal-area about z (rim: elevation 0)\nrank/family 1 solid, 2 dashed, 3 dash-dotted; "
+        f"open ring: 95 % cone wider than {MAX_CONE_DEG:g} deg (not drawn)",
         fontsize=9,
         pad=14,
     )
