@@ -100,7 +100,7 @@ def plot_overlay(
 def plot_validation(main, sep):
     """The six-panel validation figure of :func:`~bayestissue.stereology.micrographs.validation.run_chain` results
     (default phantom ``main``, separable phantom ``sep`` or None)."""
-    fig = plt.figure(figsize=(14, 8.5), constrained_layout=True)
+    fig = plt.figure(figsize=(14, 9.5), constrained_layout=True)
     gs = fig.add_gridspec(2, 3)
     # (a) volume fractions
     ax = fig.add_subplot(gs[0, 0])
@@ -163,15 +163,18 @@ def plot_validation(main, sep):
         tru = lambert_project(np.concatenate([ta, -ta[np.abs(ta[:, 2]) < 0.2]]), upper=False)
         ax.plot(est[:, 0], est[:, 1], "r^", ms=9, label="estimated axes")
         ax.plot(tru[:, 0], tru[:, 1], "kx", ms=10, mew=2, label="true axes (both rim ends)")
-        for j in range(3):
-            ax.annotate(f"{r['dir_err_deg'][j]:.1f} deg (cone {r['dirs']['cone_deg'][j]:.1f})",
-                        est[j], fontsize=7, xytext=(4, 4), textcoords="offset points")  # fmt: skip
+        for j in range(3):  # each axis' error and cone, pushed towards the centre, clear of the rim markers
+            inward = -est[j] / (np.linalg.norm(est[j]) + 1e-12)
+            ax.annotate(f"{r['dir_err_deg'][j]:.1f} deg (cone {r['dirs']['cone_deg'][j]:.1f})", est[j],
+                        xytext=tuple(38 * inward), textcoords="offset points", fontsize=7, ha="center",
+                        va="center", bbox={"fc": "white", "ec": "0.7", "pad": 1.5, "alpha": 0.9},
+                        arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.6})  # fmt: skip
         ax.add_patch(plt.Circle((0, 0), np.sqrt(2), fill=False, color="0.5"))
         ax.set_aspect("equal")
         ax.set_xlim(-1.5, 1.5)
         ax.set_ylim(-1.5, 1.5)
         ax.set_title(f"({'de'[k]}) directions, {name} phantom\n(Lambert equal-area, upper half)")
-        ax.legend(fontsize=7, loc="lower left")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3, frameon=False)
     # (f) V_V over SURS repeats vs predicted CE
     ax = fig.add_subplot(gs[1, 2])
     vv = main["vv_surs"]
@@ -183,6 +186,7 @@ def plot_validation(main, sep):
             ax.axvspan(vv.mean() - sd, vv.mean() + sd, color=c, alpha=0.15, label=f"+-1 {key}")
     ax.axvline(main["vf_true"]["smc_tissue"], color="k", lw=2, label="truth")
     ax.set_xlabel("V_V(SMC, tissue)")
+    ax.set_ylabel("SURS starts")
     ax.set_title("(f) SURS spread vs predicted CE\n(one sample)")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)  # off the bands
     return fig
