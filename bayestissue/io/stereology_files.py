@@ -225,7 +225,7 @@ def read_replicates(path: str | Path) -> dict:
     ValidationError for missing columns, fractions outside [0, 1] or non-unit directions (|v| - 1 >
     1e-6).
     """
-    cols, meta = read_table(path, required=REPLICATE_COLUMNS)
+    cols, meta = read_table(path, required=REPLICATE_COLUMNS, numeric=True)
     phi_f = np.stack([cols[f"phi_fibre{k}"] for k in (1, 2, 3)], axis=1)
     D = np.stack([np.stack([cols[f"v{k}_{c}"] for c in "xyz"], axis=1) for k in (1, 2, 3)], axis=1)
     for name, a in (("phi_matrix", cols["phi_matrix"]), ("phi_fibre", phi_f)):

@@ -54,7 +54,7 @@ def read_table(
     path: str | Path,
     *,
     required: tuple[str, ...] = (),
-    numeric: bool | tuple[str, ...] | Callable[[str], bool] = True,
+    numeric: bool | tuple[str, ...] | Callable[[str], bool] = False,
 ) -> tuple[dict[str, np.ndarray], dict]:
     """Read a CSV table with ``#`` comment lines.
 
@@ -62,8 +62,9 @@ def read_table(
     ----------
     path : path of the CSV file (UTF-8, with or without a byte-order mark, or UTF-16 with one).
     required : column names that must be present.
-    numeric : the columns whose every cell must be a finite number: True (all), False (none), their names, or a
-        test of a column's name; the other columns are numbers where every cell parses as one, else text.
+    numeric : the columns whose every cell must be a finite number: True (all), False (none, the default), their
+        names, or a test of a column's name; the other columns are numbers where every cell parses as one (``nan``
+        included), else text.
 
     Returns
     -------
@@ -99,7 +100,7 @@ def read_table(
 def _header(text: str, name: str) -> tuple[dict, int, list[str]]:
     """The ``# key: value`` lines above the header, the header's line number (1-based) and its column names."""
     meta: dict[str, str] = {}
-    for n, line in enumerate(_io.StringIO(text), start=1):
+    for n, line in enumerate(text.splitlines(), start=1):
         s = line.strip()
         if not s:
             continue
@@ -155,8 +156,9 @@ def _columns(text: str, header_line: int, header: list[str], must: set, name: st
     columns: dict[str, np.ndarray] = {}
     for j, col in enumerate(header):
         raw = [r[j].strip() for r in rows]
+        parse = _number if col in must else float
         try:
-            columns[col] = np.array([_number(x) for x in raw], dtype=float)
+            columns[col] = np.array([parse(x) for x in raw], dtype=float)
         except ValueError:
             if col not in must:
                 columns[col] = np.array(raw, dtype=str)

@@ -199,7 +199,7 @@ def load_experiment(path: str | Path) -> Experiment:
     columns, meta, data_file = {}, {}, None
     if isinstance(data, dict) and "file" in data:
         data_file = path.parent / data["file"]
-        columns, meta = read_table(data_file, required=("time_s",))
+        columns, meta = read_table(data_file, required=("time_s",), numeric=True)
     try:
         return _build(doc, path, columns, meta, data_file)
     except ValidationError as exc:

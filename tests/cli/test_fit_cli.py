@@ -36,7 +36,7 @@ def test_fit_two_parameters_writes_results(tmp_path, capsys):
 
     # the verdict says how far each short ensemble is from the length criterion
     assert re.search(r"shorter than 50 tau .*\(0: 300 of 50 x [\d.]+ = \d+ steps", text), text
-    cols, meta = read_table(out / "summary.csv", numeric=False, required=("parameter", "ls_estimate", "median"))
+    cols, meta = read_table(out / "summary.csv", required=("parameter", "ls_estimate", "median"))
     assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
     assert "ginf1=125" in meta["parameters_fixed"]
     idata = read_inference_data(out / "posterior.nc")
@@ -76,7 +76,7 @@ def test_fit_nested_engine_writes_evidence_weights_and_figures(tmp_path, capsys)
     for name in ("corner", "nested_runs", "predictive_T2"):
         assert (out / f"{name}.png").stat().st_size > 10_000
     assert not (out / "traces.png").exists()
-    cols, _ = read_table(out / "summary.csv", numeric=False, required=("parameter", "median", "rhat", "ess_bulk"))
+    cols, _ = read_table(out / "summary.csv", required=("parameter", "median", "rhat", "ess_bulk"))
     assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
 
 

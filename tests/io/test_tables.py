@@ -12,7 +12,7 @@ TEXT = "# synthetic: yes\n# noise_sd_mm: 0.02\ntime_s,u_mm\n0,0\n3,0.25\n\n# a n
 def test_numeric_fast_path_equals_the_row_reader(tmp_path):
     p = tmp_path / "t.csv"
     p.write_text(TEXT)
-    fast, meta = read_table(p)  # every column numeric: numpy.loadtxt
+    fast, meta = read_table(p, numeric=True)  # every column numeric: numpy.loadtxt
     slow, _ = read_table(p, numeric=False)  # the row reader
     assert meta == {"synthetic": "yes", "noise_sd_mm": "0.02"}
     for name in ("time_s", "u_mm"):
@@ -25,7 +25,7 @@ def test_non_numbers_are_refused_with_line_and_column(tmp_path, cell):
     p = tmp_path / "t.csv"
     p.write_text(TEXT.replace("3,0.25", f"3,{cell}"))
     with pytest.raises(ValidationError, match=r"t.csv line 5"):
-        read_table(p)
+        read_table(p, numeric=True)
 
 
 def test_text_columns_allowed_where_asked(tmp_path):
@@ -34,7 +34,18 @@ def test_text_columns_allowed_where_asked(tmp_path):
     cols, _ = read_table(p, numeric=("median",))
     assert cols["parameter"].tolist() == ["mu", "kappa"] and cols["median"].tolist() == [2.5, 3.0]
     with pytest.raises(ValidationError, match=r"s.csv line 2 column parameter: expected a finite number"):
-        read_table(p)
+        read_table(p, numeric=True)
+
+
+def test_default_reads_text_and_nan_columns(tmp_path):
+    """Without ``numeric`` (summary tables, benchmarks/compare_engines.py) a text column stays text and a number
+    column with "nan" cells stays a number column."""
+    p = tmp_path / "s.csv"
+    p.write_text("parameter,median,wald_lower_90\nmu,2.5,nan\nkappa,3.0,1.5\n")
+    cols, _ = read_table(p)
+    assert cols["parameter"].tolist() == ["mu", "kappa"]
+    assert cols["median"].tolist() == [2.5, 3.0]
+    assert np.isnan(cols["wald_lower_90"][0]) and cols["wald_lower_90"][1] == 1.5
 
 
 def test_header_only_and_empty_files(tmp_path):

@@ -21,7 +21,7 @@ def _mirror_section(out: Path, w) -> None:
     for lab in ("T1", "T2"):
         path = out / f"calibration_summary_{lab}_mirror.csv"
         if path.exists():
-            tables[lab] = read_table(path, numeric=False)
+            tables[lab] = read_table(path)
     if not tables:
         return
     w("### What the tests carry: the mirror-symmetric model in creep-curve coordinates\n")
