@@ -92,8 +92,7 @@ def run(args) -> int:
     else:
         stage = f"least squares, then {config.sampler.n_ensembles} ensembles"
     manifest = run_manifest(config, experiments, config_path=args.config)
-    n_runs = config.nested.n_runs if config.engine == "nested" else config.sampler.n_ensembles
-    with open_run_directory(out, manifest, resume=args.resume, overwrite=args.overwrite, n_runs=n_runs) as run_dir:
+    with open_run_directory(out, manifest, resume=args.resume, overwrite=args.overwrite) as run_dir:
         for note in run_dir.notes:
             print(note)
         if args.resume:

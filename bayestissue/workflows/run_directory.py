@@ -39,6 +39,7 @@ from pathlib import Path
 from bayestissue import __version__
 from bayestissue._validation import ValidationError
 from bayestissue.inference.sampling.checkpoints import stored_progress
+from bayestissue.io.paths import check_output_dir
 from bayestissue.io.results import file_sha256, package_sha256
 
 __all__ = ["RESUMABLE", "RunDirectory", "run_manifest", "open_run_directory", "manifest_differences"]
@@ -185,7 +186,6 @@ def open_run_directory(
     *,
     resume: bool = False,
     overwrite: bool = False,
-    n_runs: int = 1,
 ) -> Iterator[RunDirectory]:
     """Open ``path`` for one run described by ``manifest`` (see the module docstring); the status in the manifest
     is ``finished`` after a normal exit and ``failed`` after an exception; the lock is released in either case.
@@ -196,18 +196,14 @@ def open_run_directory(
         ``--out`` an existing file, busy, not empty (fresh run without ``overwrite``), nothing to resume, a
         different run (naming what changed), or an unreadable manifest or checkpoint.
     """
-    path = Path(path)
+    path = check_output_dir("--out", path)
     created = not path.exists()
-    if path.exists() and not path.is_dir():
-        raise ValidationError("--out", str(path), "a directory (an existing file is in the way)")
     if resume and created:
         raise ValidationError("--resume", str(path), "an existing run directory", "nothing to resume: check --out")
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ValidationError("--out", str(path), "a directory that can be created", exc.strerror) from None
-    if not os.access(path, os.W_OK | os.X_OK):
-        raise ValidationError("--out", str(path), "a writable directory")
     fd, previous = _lock(path)
     try:
         run = RunDirectory(path, dict(manifest))
@@ -216,7 +212,7 @@ def open_run_directory(
             run.notes.append(f"the previous run in {path} ({previous}) was interrupted before it finished")
         try:
             if resume:
-                _check_resume(run, stored, n_runs)
+                _check_resume(run, stored)
             else:
                 _check_fresh(run, overwrite)
         except ValidationError:
@@ -247,7 +243,13 @@ def open_run_directory(
         os.close(fd)
 
 
-def _check_resume(run: RunDirectory, stored: dict | None, n_runs: int) -> None:
+def _n_runs(manifest: Mapping) -> int:
+    """The number of independent runs the manifest's configuration asks for (nested runs or emcee ensembles)."""
+    engine, config = manifest["engine"], manifest.get("config", {})
+    return config["nested"]["n_runs"] if engine == "nested" else config["sampler"]["n_ensembles"]
+
+
+def _check_resume(run: RunDirectory, stored: dict | None) -> None:
     if stored is None:
         raise ValidationError(
             "--resume", str(run.path), f"a run directory with a {MANIFEST}", "nothing to resume: run without --resume"
@@ -257,7 +259,7 @@ def _check_resume(run: RunDirectory, stored: dict | None, n_runs: int) -> None:
         raise ValidationError(
             "--resume", str(run.path), "the same inputs, configuration and code as the stored run", "; ".join(diffs)
         )
-    run.resumed, run.unit = stored_progress(run.checkpoints, run.manifest["engine"], n_runs)
+    run.resumed, run.unit = stored_progress(run.checkpoints, run.manifest["engine"], _n_runs(run.manifest))
 
 
 def _check_fresh(run: RunDirectory, overwrite: bool) -> None:

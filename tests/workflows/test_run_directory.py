@@ -91,14 +91,15 @@ def test_interrupted_run_is_explained_and_corrupt_checkpoint_named(tmp_path):
     # a run that dies holding the lock, its manifest still saying "running"
     code = (
         "import os, sys; from bayestissue.workflows.run_directory import open_run_directory as o\n"
-        "cm = o(sys.argv[1], {'engine': 'emcee'}); cm.__enter__(); os._exit(9)\n"
+        "cm = o(sys.argv[1], {'engine': 'emcee', 'config': {'sampler': {'n_ensembles': 2}}}); cm.__enter__(); "
+        "os._exit(9)\n"
     )
     subprocess.run([sys.executable, "-c", code, str(out)], check=False)
-    m = {"engine": "emcee"}
-    with open_run_directory(out, m, resume=True, n_runs=2) as run:
+    m = {"engine": "emcee", "config": {"sampler": {"n_ensembles": 2}}}
+    with open_run_directory(out, m, resume=True) as run:
         assert any("was interrupted before it finished" in n for n in run.notes), run.notes
         assert run.resumed == [0, 0] and run.unit == "steps"
         run.checkpoints.mkdir()
         (run.checkpoints / "ensemble_1.h5").write_bytes(b"")
     with pytest.raises(ValidationError, match=r"checkpoint .*ensemble_1.h5: .*delete this file .* --overwrite"):
-        open_run_directory(out, m, resume=True, n_runs=2).__enter__()
+        open_run_directory(out, m, resume=True).__enter__()

@@ -44,6 +44,7 @@ from scipy.special import logsumexp
 from bayestissue._validation import ValidationError
 from bayestissue.inference.marginal_noise import MarginalNoise, can_marginalise
 from bayestissue.inference.problem import CalibrationProblem
+from bayestissue.inference.sampling.checkpoints import checkpoint_path
 from bayestissue.inference.sampling.processes import run_in_processes
 
 __all__ = ["NestedOptions", "NestedRun", "NestedSample", "nested_target", "peak_log_likelihood", "sample_nested"]
@@ -303,7 +304,7 @@ def sample_nested(
     paths = [None] * options.n_runs
     if checkpoint is not None:
         Path(checkpoint).mkdir(parents=True, exist_ok=True)
-        paths = [Path(checkpoint) / f"nested_{k}.h5" for k in range(options.n_runs)]
+        paths = [checkpoint_path(checkpoint, "nested", k) for k in range(options.n_runs)]
     n_proc = min(options.n_processes or os.cpu_count() or 1, options.n_runs)
     t0 = time.perf_counter()
     args = [(k, seeds[k], options, paths[k], resume) for k in range(options.n_runs)]

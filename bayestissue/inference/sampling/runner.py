@@ -14,6 +14,7 @@ import numpy as np
 from bayestissue._validation import ValidationError
 from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.proposals import fit_t_mixture
+from bayestissue.inference.sampling.checkpoints import checkpoint_path
 from bayestissue.inference.sampling.ensemble import EnsembleResult, _phase_report, _stored_run, run_ensemble
 from bayestissue.inference.sampling.options import ADAPTIVE_MOVES, SamplerOptions
 from bayestissue.inference.sampling.phases import prepare_ensemble
@@ -144,7 +145,7 @@ def sample_posterior(
     paths = [None] * n_ens
     if checkpoint is not None:
         Path(checkpoint).mkdir(parents=True, exist_ok=True)
-        paths = [Path(checkpoint) / f"ensemble_{k}.h5" for k in range(n_ens)]
+        paths = [checkpoint_path(checkpoint, "emcee", k) for k in range(n_ens)]
     n_proc = options.n_processes or min(n_ens, os.cpu_count() or 1)
     n_proc = min(n_proc, n_ens)
     t0 = time.perf_counter()
