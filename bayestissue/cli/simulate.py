@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import sys
 
-import numpy as np
-
 __all__ = ["register", "run"]
 
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "simulate",
-        help="simulate an experiment file and print or write the displacement curve",
+        help="simulate an experiment file and print or write its displacement and force curves",
         description="Simulate EXPERIMENT (a TOML experiment file) with the given material parameters. "
         "Parameters not given keep the paper's initial guess (docs/model.md Table 1).",
     )
@@ -42,18 +40,16 @@ def run(args) -> int:
     names = exp.tissue.param_names
     base = PAPER_PARAMETERS[args.preset] if len(names) == 11 else None
     params = parse_parameters(args.params, names, base=base)
-    u = simulate(exp, params)
-    if np.isnan(u).any():
+    run = simulate(exp, params, full=True)
+    if not run.ok[0]:
         print(
             f"bayestissue simulate: error: the solve failed for {args.params or args.preset}",
             file=sys.stderr,
         )
         return 1
-    # the force on the grid, taken to the data times exactly as the displacement is (Experiment.interpolation: a
-    # data time inside the first step takes step 1, where the load is applied)
-    i, w = exp.interpolation()
-    stress = exp.nominal_stress_kpa()
-    force = ((1.0 - w) * stress[i] + w * stress[i + 1]) * exp.area_mm2
+    # both at the data times, interpolated alike (Experiment.interpolation: a data time inside the first step takes
+    # step 1, where the load is applied); one is prescribed, the other computed
+    u, force = run.displacement_mm[0], run.force_mN[0]
     meta = {
         "experiment": exp.source,
         "parameters": ", ".join(f"{n}={v:g}" for n, v in zip(names, params, strict=True)),

@@ -50,7 +50,7 @@ class ExperimentTerm:
     time_s : (n_obs,) ndarray
         Data times.
     observed : (n_obs,) ndarray
-        Observed displacement (mm); must be finite.
+        Observed data (the experiment's observable: a displacement in mm, a force in mN ...); must be finite.
     forward : callable
         ``(n_sets, n_material) -> (n_sets, n_obs)`` predictions, NaN rows for failed solves.
     noise : NoiseModel
@@ -83,7 +83,7 @@ class ExperimentTerm:
         bad = np.flatnonzero(~np.isfinite(y))
         if bad.size:
             raise ValidationError(
-                f"experiment {self.name} observed displacement",
+                f"experiment {self.name} observed data",
                 f"{y[bad[0]]} at row {bad[0]}",
                 "finite values",
                 f"{bad.size} non-finite value(s); remove or interpolate them",

@@ -12,16 +12,18 @@ Experiment file format (TOML, with a CSV data file beside it)::
     length_z_mm = 3.9
 
     [protocol]
-    kind = "creep"                        # creep | ramp | measured
+    kind = "creep"                        # creep | ramp | measured | stretch_ramp | stretch_cycles | measured_stretch
     stress_kpa = 10.6                     # creep: constant nominal stress
     # ramp:     hold_stress_kpa, hold_s, rate_kpa_per_s
     # measured: the load is the data file's force column (force_column, default "force_mN")
+    # stretch_ramp: stretch, ramp_s; stretch_cycles: stretch, period_s
+    # measured_stretch: the stretch is the data file's stretch column (or displacement_mm / length_x_mm)
 
     [simulation]
     dt_s = 6.0                            # simulation step, independent of the data step
 
     [data]
-    file = "T1.csv"                       # columns time_s, displacement_mm (optional), force_mN (optional)
+    file = "T1.csv"                       # columns time_s, displacement_mm, force_mN, stretch, nominal_stress_kpa
     # or, for a simulation-only experiment without a data file:
     # duration_s = 1200.0
     # step_s = 3.0
@@ -34,6 +36,10 @@ Experiment file format (TOML, with a CSV data file beside it)::
     eps0 = [0, 0, 0]
 
 A data file's ``# noise_sd_mm: ...`` header line (written for synthetic replicas) is kept as ``noise_sd_mm``.
+
+What is observed depends on what the protocol controls (:attr:`Experiment.observable`): under force control the
+displacement of the loaded face (``displacement_mm``); under stretch control the force on it (``force_mN``) or,
+where the data give only that, the nominal stress (``nominal_stress_kpa``).
 """
 
 from __future__ import annotations
@@ -75,8 +81,8 @@ class Experiment:
     dt_s : float
         Simulation step (s). The simulation grid is ``t_n = n dt_s`` up to the last data time; the displacement is
         linearly interpolated to the data times.
-    displacement_mm, force_mN : (n_obs,) ndarray or None
-        Observed displacement of the loaded face and the applied force, if known.
+    displacement_mm, force_mN, stress_kpa : (n_obs,) ndarray or None
+        Displacement of the loaded face, force on it and nominal stress P11, where the data file gives them.
     tissue : TissueConfig
         Fibre directions, volume fractions, bulk modulus, slack strains (default: the paper's).
     noise_sd_mm : float or None
@@ -91,6 +97,7 @@ class Experiment:
     dt_s: float
     displacement_mm: np.ndarray | None = None
     force_mN: np.ndarray | None = None
+    stress_kpa: np.ndarray | None = None
     tissue: TissueConfig = PAPER_TISSUE
     noise_sd_mm: float | None = None
     synthetic: bool = False
@@ -120,7 +127,7 @@ class Experiment:
                 f"({MIN_STEPS} to {MAX_STEPS:.0e} steps)",
                 "a smaller step cannot be stored, a larger one cannot follow the test",
             )
-        for name in ("displacement_mm", "force_mN"):
+        for name in ("displacement_mm", "force_mN", "stress_kpa"):
             v = getattr(self, name)
             if v is None:
                 continue
@@ -152,9 +159,41 @@ class Experiment:
         """(n_steps + 1,) simulation grid ``t_n = n dt``."""
         return np.arange(self.n_steps + 1) * self.dt_s
 
+    @property
+    def controls(self) -> str:
+        """What the protocol prescribes: ``"force"`` or ``"stretch"``."""
+        return self.protocol.controls
+
     def nominal_stress_kpa(self) -> np.ndarray:
-        """(n_steps + 1,) nominal stress P11 at the simulation steps (0 at t = 0)."""
+        """(n_steps + 1,) nominal stress P11 at the simulation steps (0 at t = 0) of a force-controlled test."""
+        if self.controls != "force":
+            raise ValidationError(f"experiment {self.name}", self.protocol.kind, "a force-controlled protocol")
         return self.protocol.nominal_stress_kpa(self.step_time_s, self.area_mm2)
+
+    def prescribed(self) -> np.ndarray:
+        """(n_steps + 1,) the load history at the simulation steps: the nominal stress P11 (kPa, 0 at t = 0) under
+        force control, the stretch of the loaded face (1 at t = 0) under stretch control."""
+        if self.controls == "force":
+            return self.nominal_stress_kpa()
+        lam = np.asarray(self.protocol.stretch_at(self.step_time_s, self.specimen_mm[0]), dtype=float)
+        lam[0] = 1.0
+        return lam
+
+    @property
+    def observable(self) -> tuple[str, str, np.ndarray | None]:
+        """``(quantity, unit, data)``: what the forward model predicts and the data to compare it with --
+        ``("displacement", "mm", displacement_mm)`` under force control; under stretch control ``("force", "mN",
+        force_mN)``, or ``("nominal stress", "kPa", stress_kpa)`` when the data file has no force column."""
+        if self.controls == "force":
+            return "displacement", "mm", self.displacement_mm
+        if self.stress_kpa is not None and self.force_mN is None:
+            return "nominal stress", "kPa", self.stress_kpa
+        return "force", "mN", self.force_mN
+
+    @property
+    def observed(self) -> np.ndarray | None:
+        """The observed data (:attr:`observable`), or None for a simulation-only experiment."""
+        return self.observable[2]
 
     def interpolation(self) -> tuple[np.ndarray, np.ndarray]:
         """Indices ``i`` and weights ``w`` with ``u(t_obs) = (1 - w) u[i] + w u[i + 1]`` on the step grid.
@@ -217,7 +256,7 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
         duration = check_positive("data.duration_s", _get(data, "duration_s", "data"))
         step = check_positive("data.step_s", _get(data, "step_s", "data"))
         time_s = np.arange(0.0, duration + 0.5 * step, step)
-    protocol = protocol_from_mapping(_table(doc, "protocol"), columns=columns)
+    protocol = protocol_from_mapping(_table(doc, "protocol"), columns=columns, length_x_mm=dims[0])
     tissue = PAPER_TISSUE
     if "tissue" in doc:
         t = doc["tissue"]
@@ -242,6 +281,7 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
         dt_s=dt,
         displacement_mm=columns.get("displacement_mm"),
         force_mN=columns.get("force_mN"),
+        stress_kpa=columns.get("nominal_stress_kpa"),
         tissue=tissue,
         noise_sd_mm=noise,
         synthetic=bool(doc.get("synthetic", False)),

@@ -33,24 +33,34 @@ TABLES: dict[str, dict[str, Key]] = {
         "length_z_mm": Key("float", "required", "cross-section side (mm)", **_POSITIVE),
     },
     "protocol": {
-        "kind": Key("choice", "required", "creep, ramp, or a measured force history",
-                    choices=("creep", "ramp", "measured")),
+        "kind": Key("choice", "required", "force control: creep, ramp, a measured force history; stretch control: "
+                    "stretch_ramp, stretch_cycles, a measured stretch history",
+                    choices=("creep", "ramp", "measured", "stretch_ramp", "stretch_cycles", "measured_stretch")),
         "stress_kpa": Key("float", "required (creep)", "constant nominal stress from the first step on (kPa)"),
         "hold_stress_kpa": Key("float", "required (ramp)", "nominal stress held first (kPa)"),
         "hold_s": Key("float", "required (ramp)", "duration of the hold (s)", low=0.0),
         "rate_kpa_per_s": Key("float", "required (ramp)", "rate of the nominal stress after the hold (kPa/s)"),
         "force_column": Key("text", '"force_mN"', "the data file's force column (measured)"),
+        "stretch": Key("float", "required (stretch_ramp, stretch_cycles)", "peak stretch of the loaded face",
+                       **_POSITIVE),
+        "ramp_s": Key("float", "required (stretch_ramp)", "duration of the ramp to the peak, then held (s)",
+                      **_POSITIVE),
+        "period_s": Key("float", "required (stretch_cycles)", "period of a loading-unloading cycle (s)", **_POSITIVE),
+        "stretch_column": Key("text", '"stretch"', "the data file's stretch column (measured_stretch; without it, "
+                              "displacement_mm / length_x_mm)"),
     },
     "simulation": {
         "dt_s": Key("float", "required", "simulation step (s), 2 to 10^6 steps over the data's span", **_POSITIVE),
     },
     "data": {
-        "file": Key("text", "none", "CSV beside the experiment file: time_s, displacement_mm, force_mN"),
+        "file": Key("text", "none", "CSV beside the experiment file: time_s, displacement_mm, force_mN, stretch, "
+                    "nominal_stress_kpa"),
         "duration_s": Key("float", "without file", "simulated duration (s)", **_POSITIVE),
         "step_s": Key("float", "without file", "output step (s)", **_POSITIVE),
     },
     "tissue": {
-        "directions": Key("rows", "the paper's three", "fibre directions, unit vectors within 1 %"),
+        "directions": Key("rows", "the paper's three", "fibre directions, unit vectors within 1 % ([] for a "
+                          "matrix-only material)"),
         "phi_fibres": Key("numbers", "[0.2, 0.2, 0.2]", "volume fraction of each fibre family"),
         "phi_matrix": Key("float", "0.4", "matrix volume fraction (with the fibres': 1)", low=0.0),
         "bulk_kpa": Key("float", "1000", "bulk modulus of the volumetric penalty (kPa)", **_POSITIVE),
@@ -63,6 +73,9 @@ PROTOCOL_KEYS = {
     "creep": ("kind", "stress_kpa"),
     "ramp": ("kind", "hold_stress_kpa", "hold_s", "rate_kpa_per_s"),
     "measured": ("kind", "force_column"),
+    "stretch_ramp": ("kind", "stretch", "ramp_s"),
+    "stretch_cycles": ("kind", "stretch", "period_s"),
+    "measured_stretch": ("kind", "stretch_column"),
 }
 
 
@@ -105,8 +118,10 @@ def reference_markdown() -> str:
         "The data file: comment lines `# key: value` (kept as metadata; `noise_sd_mm` is the known noise sd of a "
         "synthetic replica), a header row, then one row per time, comma-separated, decimal points; UTF-8 (with or "
         "without a byte-order mark) or UTF-16 with its mark. Columns: `time_s` (required, strictly increasing, "
-        ">= 0), `displacement_mm` (the observed displacement of the loaded face), `force_mN` (the applied force; the "
-        "load of a measured protocol).",
+        ">= 0), `displacement_mm` (the displacement of the loaded face: observed under force control, the load of a "
+        "measured_stretch protocol without a stretch column), `force_mN` (the force on the loaded face: the load "
+        "of a measured protocol, observed under stretch control), `stretch` (the load of a measured_stretch "
+        "protocol), `nominal_stress_kpa` (observed under stretch control where the data give no force).",
     ]
     for table, keys in TABLES.items():
         lines += ["", "## top level" if not table else f"## [{table}]", "", *reference_rows(keys)]

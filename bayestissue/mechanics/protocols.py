@@ -1,6 +1,7 @@
-r"""Loading protocols of a uniaxial test: the nominal stress :math:`P_{11}(t) = F(t) / (L_y L_z)` over time.
+r"""Loading protocols of a uniaxial test: what is prescribed on the loaded face over time.
 
-Three kinds, registered by name in :data:`PROTOCOLS` (the ``kind`` key of an experiment file):
+Force-controlled kinds (``controls = "force"``) prescribe the nominal stress :math:`P_{11}(t) = F(t) / (L_y L_z)`;
+the observable is the displacement of the loaded face:
 
 - ``creep``: constant nominal stress :math:`P_{11}(t) = P_0` for :math:`t > 0` (the paper's T1, 10.6 kPa);
 - ``ramp``: a pre-stress hold then a linear increase,
@@ -8,6 +9,19 @@ Three kinds, registered by name in :data:`PROTOCOLS` (the ``kind`` key of an exp
   1.6 kPa for 240 s then +3.24 kPa/min = 20 mN/min on its 1.71 x 3.61 mm cross-section);
 - ``measured``: a measured force history :math:`F(t_i)` given as samples, linearly interpolated (held constant
   beyond the last sample).
+
+Displacement-controlled kinds (``controls = "stretch"``) prescribe the stretch of the loaded face
+:math:`\lambda(t) = 1 + u(t)/L_x`; the observable is the force on it (or the nominal stress, where the data give
+that):
+
+- ``stretch_ramp``: a constant-rate ramp to ``stretch`` over ``ramp_s`` seconds, then held (stress relaxation);
+  a ramp longer than the data is a constant strain-rate test: :math:`\lambda(t) = 1 + (\lambda_p - 1)\min(t /
+  t_r, 1)`;
+- ``stretch_cycles``: loading-unloading cycles between 1 and ``stretch`` with period ``period_s`` (a triangle
+  wave, :math:`\lambda(t) = 1 + (\lambda_p - 1)(1 - |1 - 2 \{t / T\}|)`, :math:`\{\cdot\}` the fractional
+  part);
+- ``measured_stretch``: a measured stretch history (the data file's ``stretch`` column, or ``displacement_mm``
+  divided by the specimen length), linearly interpolated.
 
 Every protocol starts unloaded: the state at :math:`t = 0` is the reference one, the load acts from the first
 simulation step on (docs/model.md, initial state).
@@ -25,6 +39,9 @@ __all__ = [
     "CreepProtocol",
     "RampProtocol",
     "MeasuredForceProtocol",
+    "StretchRampProtocol",
+    "StretchCyclesProtocol",
+    "MeasuredStretchProtocol",
     "PROTOCOLS",
     "protocol_from_mapping",
 ]
@@ -36,6 +53,7 @@ class CreepProtocol:
 
     stress_kpa: float
     kind = "creep"
+    controls = "force"
 
     def __post_init__(self):
         check_finite("protocol.stress_kpa", self.stress_kpa)
@@ -57,6 +75,7 @@ class RampProtocol:
     hold_s: float
     rate_kpa_per_s: float
     kind = "ramp"
+    controls = "force"
 
     def __post_init__(self):
         check_finite("protocol.hold_stress_kpa", self.hold_stress_kpa)
@@ -84,6 +103,7 @@ class MeasuredForceProtocol:
     time_s: np.ndarray
     force_mN: np.ndarray
     kind = "measured"
+    controls = "force"
 
     def __post_init__(self):
         t = check_increasing("protocol force time_s", self.time_s)
@@ -113,16 +133,122 @@ class MeasuredForceProtocol:
         return cls(time_s=columns["time_s"], force_mN=columns[col])
 
 
+@dataclass(frozen=True)
+class StretchRampProtocol:
+    """A constant-rate stretch ramp to ``stretch`` over ``ramp_s`` seconds, then held (relaxation)."""
+
+    stretch: float
+    ramp_s: float
+    kind = "stretch_ramp"
+    controls = "stretch"
+
+    def __post_init__(self):
+        check_positive("protocol.stretch", self.stretch)
+        check_positive("protocol.ramp_s", self.ramp_s)
+
+    def stretch_at(self, time_s: np.ndarray, length_x_mm: float) -> np.ndarray:
+        t = np.asarray(time_s, dtype=float)
+        return 1.0 + (self.stretch - 1.0) * np.clip(t / self.ramp_s, 0.0, 1.0)
+
+    @classmethod
+    def from_mapping(cls, d: dict, **_):
+        return cls(stretch=_require(d, "stretch"), ramp_s=_require(d, "ramp_s"))
+
+
+@dataclass(frozen=True)
+class StretchCyclesProtocol:
+    """Loading-unloading cycles between 1 and ``stretch``, period ``period_s`` (triangle wave)."""
+
+    stretch: float
+    period_s: float
+    kind = "stretch_cycles"
+    controls = "stretch"
+
+    def __post_init__(self):
+        check_positive("protocol.stretch", self.stretch)
+        check_positive("protocol.period_s", self.period_s)
+
+    def stretch_at(self, time_s: np.ndarray, length_x_mm: float) -> np.ndarray:
+        phase = np.mod(np.asarray(time_s, dtype=float) / self.period_s, 1.0)
+        return 1.0 + (self.stretch - 1.0) * (1.0 - np.abs(1.0 - 2.0 * phase))
+
+    @classmethod
+    def from_mapping(cls, d: dict, **_):
+        return cls(stretch=_require(d, "stretch"), period_s=_require(d, "period_s"))
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredStretchProtocol:
+    """A measured stretch history: samples ``stretch`` at ``time_s``, linearly interpolated (held beyond the last).
+
+    The state at t = 0 is the reference: a sample at t = 0 must have stretch 1; without one, (0, 1) is the first
+    point of the interpolation.
+    """
+
+    time_s: np.ndarray
+    stretch: np.ndarray
+    kind = "measured_stretch"
+    controls = "stretch"
+
+    def __post_init__(self):
+        t = check_increasing("protocol stretch time_s", self.time_s)
+        lam = np.asarray(self.stretch, dtype=float)
+        if lam.shape != t.shape:
+            raise ValidationError("protocol stretch", f"{lam.size} samples", f"{t.size} (one per time sample)")
+        bad = np.flatnonzero(~(np.isfinite(lam) & (lam > 0)))
+        if bad.size:
+            raise ValidationError("stretch", f"{lam[bad[0]]} at row {bad[0]}", "finite stretches > 0")
+        if t[0] == 0 and abs(lam[0] - 1.0) > 1e-9:
+            raise ValidationError(
+                "stretch at time_s = 0",
+                float(lam[0]),
+                "1 (t = 0 is the unloaded reference state)",
+                "start the times after 0 if the first sample is already stretched",
+            )
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "stretch", lam)
+
+    def stretch_at(self, time_s: np.ndarray, length_x_mm: float) -> np.ndarray:
+        t = np.asarray(time_s, dtype=float)
+        return np.interp(t, np.r_[0.0, self.time_s], np.r_[1.0, self.stretch])
+
+    @classmethod
+    def from_mapping(cls, d: dict, *, columns: dict | None = None, length_x_mm: float | None = None, **_):
+        columns = columns or {}
+        col = d.get("stretch_column", "stretch")
+        if "time_s" in columns and col in columns:
+            return cls(time_s=columns["time_s"], stretch=columns[col])
+        if "time_s" in columns and "displacement_mm" in columns and "stretch_column" not in d and length_x_mm:
+            return cls(time_s=columns["time_s"], stretch=1.0 + columns["displacement_mm"] / float(length_x_mm))
+        raise ValidationError(
+            "protocol.kind",
+            "measured_stretch",
+            f"a data file with columns time_s and {col} (or displacement_mm)",
+            "a measured stretch protocol takes its load from the data file",
+        )
+
+
 #: Protocol classes by the ``kind`` name used in experiment files.
-PROTOCOLS = {cls.kind: cls for cls in (CreepProtocol, RampProtocol, MeasuredForceProtocol)}
+PROTOCOLS = {
+    cls.kind: cls
+    for cls in (
+        CreepProtocol,
+        RampProtocol,
+        MeasuredForceProtocol,
+        StretchRampProtocol,
+        StretchCyclesProtocol,
+        MeasuredStretchProtocol,
+    )
+}
 
 
-def protocol_from_mapping(d: dict, *, columns: dict | None = None):
-    """Build a protocol from the ``[protocol]`` table of an experiment file."""
+def protocol_from_mapping(d: dict, *, columns: dict | None = None, length_x_mm: float | None = None):
+    """Build a protocol from the ``[protocol]`` table of an experiment file (``length_x_mm`` turns a measured
+    displacement history into a stretch)."""
     kind = d.get("kind")
     if kind not in PROTOCOLS:
         raise ValidationError("protocol.kind", kind, f"one of {sorted(PROTOCOLS)}")
-    return PROTOCOLS[kind].from_mapping(d, columns=columns)
+    return PROTOCOLS[kind].from_mapping(d, columns=columns, length_x_mm=length_x_mm)
 
 
 def _require(d: dict, key: str):

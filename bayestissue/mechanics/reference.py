@@ -51,11 +51,15 @@ def _symmetric(x) -> np.ndarray:
     return E + np.triu(E, 1).T
 
 
-def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_x, *, tol=1e-10):
+def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_x, *, tol=1e-10, stretch_control=False):
     """Integrate one uniaxial test step by step with ``scipy.optimize.root`` on the six equations
     :math:`S(E) - P_{11}/\\sqrt{C_{11}}\\, e_1 \\otimes e_1 = 0` (docs/model.md). Slack strains are zero.
 
-    Returns the x-displacement (mm) at every step of ``load`` (NaN from the first step that fails).
+    With ``stretch_control`` ``load`` is the prescribed stretch: :math:`E_{11} = (\\lambda^2 - 1)/2` is fixed and the
+    five equations :math:`S_{ij} = 0`, :math:`ij \\ne 11`, are solved for the other components.
+
+    Returns the x-displacement (mm) at every step of ``load`` -- under stretch control the nominal stress
+    :math:`P_{11} = \\lambda S_{11}` (kPa) -- NaN from the first step that fails.
     """
     p = np.asarray(params, dtype=float)
     nf = len(phi_f)
@@ -67,35 +71,47 @@ def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_
     tau_old = np.zeros(nf)
     h = np.zeros(nf)
     x = np.zeros(6)
+    free = slice(1, 6) if stretch_control else slice(0, 6)  # the upper triangle's first entry is E11
     u = np.full(len(load), np.nan)
     u[0] = 0.0
     for n in range(1, len(load)):
         q = gamma * (ea * h - eh * tau_old)
+        P = 0.0 if stretch_control else load[n]
+        if stretch_control:
+            x[0] = 0.5 * (load[n] ** 2 - 1.0)
 
         def trial(eps, q=q):
             return np.maximum(0.0, (ginf * eps + q) / c)
 
-        def residual(x, P=load[n], trial=trial):
-            E = _symmetric(x)
+        def residual(xf, P=P, trial=trial, x=x):
+            E = _symmetric(np.r_[x[:1], xf] if stretch_control else xf)
             S, _ = reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, trial)
             S[0, 0] -= P / np.sqrt(1.0 + 2.0 * E[0, 0])
-            return S[_IU]
+            return S[_IU][free]
 
-        sol = root(residual, x, method="lm", tol=tol)
-        if not sol.success:
+        # where a fibre's tension switches on (reloading from slack) the solvers can stop short from the last state:
+        # check the residual, retry with Powell's method and from the reference state
+        for x0, method in ((x[free], "lm"), (x[free], "hybr"), (0.0 * x[free], "lm")):
+            with np.errstate(invalid="ignore"):  # a trial point with det C < 0 gives NaN: that attempt fails
+                sol = root(residual, x0, method=method, tol=tol)
+                good = sol.success and np.max(np.abs(residual(sol.x))) <= 1e-8 * max(1.0, abs(P))
+            if good:
+                break
+        else:
             break
-        x = sol.x
+        x[free] = sol.x
         E = _symmetric(x)
-        _, tau = reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, trial)
+        S, tau = reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, trial)
         h = ea * h + eh * (tau - tau_old)
         tau_old = tau
-        u[n] = (np.sqrt(1.0 + 2.0 * E[0, 0]) - 1.0) * length_x
+        u[n] = load[n] * S[0, 0] if stretch_control else (np.sqrt(1.0 + 2.0 * E[0, 0]) - 1.0) * length_x
     return u
 
 
 def reference_simulate_experiment(experiment, params, *, tol=1e-10):
     """:func:`reference_simulate` on an :class:`~bayestissue.mechanics.experiment.Experiment`'s tissue,
-    load history, step and specimen length (displacement at every simulation step)."""
+    load history, step and specimen length: the displacement (force control) or the nominal stress (stretch
+    control) at every simulation step."""
     t = experiment.tissue
     return reference_simulate(
         params,
@@ -103,10 +119,11 @@ def reference_simulate_experiment(experiment, params, *, tol=1e-10):
         t.phi_fibres,
         t.phi_matrix,
         t.bulk_kpa,
-        experiment.nominal_stress_kpa(),
+        experiment.prescribed(),
         experiment.dt_s,
         experiment.specimen_mm[0],
         tol=tol,
+        stretch_control=experiment.controls == "stretch",
     )
 
 

@@ -46,7 +46,7 @@ class TissueConfig:
     ----------
     directions : (n_f, 3) array_like
         Fibre directions; each must be a unit vector within 1 % (the paper's printed v2, v3 have |v| = 0.9974)
-        and is normalised.
+        and is normalised. Empty (``n_f = 0``) for a matrix-only, isotropic material.
     phi_fibres : (n_f,) array_like
         Volume fraction of each fibre family, in [0, 1].
     phi_matrix : float
@@ -65,10 +65,12 @@ class TissueConfig:
 
     def __post_init__(self):
         d = np.asarray(self.directions, dtype=float)
-        if d.ndim != 2 or d.shape[1] != 3 or d.shape[0] < 1:
-            raise ValidationError("tissue.directions", d.tolist(), "an (n_f, 3) list of unit vectors")
+        if d.size == 0:  # matrix only (isotropic): no fibre family
+            d = d.reshape(0, 3)
+        if d.ndim != 2 or d.shape[1] != 3:
+            raise ValidationError("tissue.directions", d.tolist(), "an (n_f, 3) list of unit vectors (or [])")
         nf = d.shape[0]
-        d = np.array([check_unit_vector(f"tissue.directions[{k}]", d[k]) for k in range(nf)])
+        d = np.array([check_unit_vector(f"tissue.directions[{k}]", d[k]) for k in range(nf)]).reshape(nf, 3)
         phi = np.asarray(self.phi_fibres, dtype=float).reshape(-1)
         if phi.shape != (nf,):
             raise ValidationError("tissue.phi_fibres", phi.tolist(), f"{nf} values (one per fibre direction)")
@@ -153,11 +155,11 @@ def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:
 
 def parse_parameters(text: str, names: tuple[str, ...], *, base: np.ndarray | None = None) -> np.ndarray:
     """Parse ``"mu=2.18,kappa=2.91,..."`` into a parameter vector, starting from ``base`` (default: the paper's
-    initial guess) for the names not given. Unknown names raise a ValidationError listing the known ones."""
+    initial guess, the same for every fibre family) for the names not given. Unknown names raise a ValidationError
+    listing the known ones."""
     if base is None:
-        if len(names) != len(PAPER_PARAMETERS["initial"]):
-            raise ValidationError("params", text, f"values for every parameter {names}")
-        base = PAPER_PARAMETERS["initial"]
+        initial = dict(zip(param_names(3), PAPER_PARAMETERS["initial"], strict=True))
+        base = [initial[n.rstrip("0123456789") + ("1" if n[-1].isdigit() else "")] for n in names]
     values = np.array(base, dtype=float)
     given = set()
     for item in filter(None, (s.strip() for s in text.split(","))):

@@ -17,6 +17,14 @@ also whenever :math:`J \le 0`. The potential criterion matters when stiff fibres
 residual norm is a poor merit function and Newton steps that lower the energy would be rejected. The observable is the
 x-displacement of the loaded face, :math:`u = (\sqrt{C_{11}} - 1) L_x`.
 
+Under stretch control (``stretch_control``: displacement-controlled tests, the load history is then the prescribed
+stretch :math:`\lambda_n` of the loaded face) :math:`E_{11} = (\lambda_n^2 - 1)/2` is fixed and the other five
+equations :math:`S_{ij}(E) = 0`, :math:`ij \ne 11` (traction-free lateral faces; the block may still shear) are solved
+for the five free components: row and column 11 of the tangent are replaced by the identity, so the Newton step leaves
+:math:`E_{11}` alone, and the potential is :math:`W(E)` over the free components. The observable is then the nominal
+stress on the loaded face, :math:`P_{11} = \lambda_n S_{11}` (with :math:`S = S_{11} e_1 \otimes e_1` at
+equilibrium, the traction :math:`P e_1 = F S e_1 = S_{11} F e_1` is along x), evaluated at the converged strain.
+
 A parameter set whose solve fails (no convergence in ``MAX_ITER`` iterations, :math:`J \le 0`, a singular tangent,
 NaN) is flagged: its row of the output is NaN and ``ok`` is False; the other rows are unaffected.
 """
@@ -112,7 +120,22 @@ def _solve6(A, b, x):
 
 @njit(cache=True, fastmath=_FASTMATH)
 def solve_uniaxial_batch(
-    params, M, phi_f, phi_m, bulk, eps0, load, dt, length_x, u_out, ok, strain, tension, full, iterations
+    params,
+    M,
+    phi_f,
+    phi_m,
+    bulk,
+    eps0,
+    load,
+    dt,
+    length_x,
+    u_out,
+    ok,
+    strain,
+    tension,
+    full,
+    iterations,
+    stretch_control=False,
 ):
     """Integrate the uniaxial test for every parameter set (row of ``params``).
 
@@ -127,15 +150,19 @@ def solve_uniaxial_batch(
     phi_m, bulk : float
         Matrix volume fraction and bulk modulus (kPa).
     load : (n_steps + 1,) ndarray
-        Nominal stress P11 (kPa) at the simulation steps; ``load[0]`` is the unloaded initial state.
+        Nominal stress P11 (kPa) at the simulation steps; ``load[0]`` is the unloaded initial state. Under
+        ``stretch_control`` the prescribed stretch of the loaded face (``load[0]`` = 1).
     dt, length_x : float
         Simulation step (s) and specimen length along x (mm).
     u_out : (n_sets, n_steps + 1) ndarray, output
-        x-displacement of the loaded face (mm); NaN rows for failed sets.
+        x-displacement of the loaded face (mm); under ``stretch_control`` the nominal stress P11 (kPa). NaN rows
+        for failed sets.
     ok : (n_sets,) bool ndarray, output
     strain : (n_sets, n_steps + 1, 6), tension : (n_sets, n_steps + 1, n_f) ndarray, output if ``full``
     iterations : (n_sets,) int64 ndarray, output
         Total Newton iterations (tangent evaluations) and step halvings of each set, a cost diagnostic.
+    stretch_control : bool
+        Prescribe the stretch (``load``) instead of the nominal stress (module docstring).
     """
     n_sets = params.shape[0]
     nf = M.shape[0]
@@ -186,7 +213,8 @@ def solve_uniaxial_batch(
         good = True
         total_iter = 0
         for n in range(1, n_t):
-            P = load[n]
+            P = 0.0 if stretch_control else load[n]
+            e11 = 0.5 * (load[n] * load[n] - 1.0)
             for k in range(nf):
                 q[k] = gamma[k] * (ea[k] * h[k] - eh[k] * tau_old[k])
             if n >= 3:  # quadratic extrapolation of the last three states as the initial guess
@@ -195,6 +223,8 @@ def solve_uniaxial_batch(
             elif n == 2:
                 for i in range(6):
                     e[i] = 2.0 * e_prev[i] - e_prev2[i]
+            if stretch_control:
+                e[0] = e11
             tol = RTOL * max(abs(P), 1.0)
             alpha = 1.0
             have_old = False
@@ -208,6 +238,13 @@ def solve_uniaxial_batch(
             converged = False
             while True:
                 J = _residual(e, P, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, R, tau, D, True, C, Ci)
+                if stretch_control and J > 0.0:  # E11 prescribed: drop its equation and unknown
+                    tol = RTOL * max(abs(R[0]), 1.0)
+                    R[0] = 0.0
+                    for i in range(6):
+                        D[0, i] = 0.0
+                        D[i, 0] = 0.0
+                    D[0, 0] = 1.0
                 rn2 = 0.0
                 rinf = 0.0
                 if J > 0.0:
@@ -241,6 +278,8 @@ def solve_uniaxial_batch(
                     fallback = True  # extrapolated guess inadmissible: restart from the last state
                     for i in range(6):
                         e[i] = e_prev[i]
+                    if stretch_control:
+                        e[0] = e11
                     continue
                 if rinf <= tol:
                     converged = True
@@ -279,6 +318,11 @@ def solve_uniaxial_batch(
             if not converged:
                 good = False
                 break
+            if stretch_control:  # P11 = lambda S11 at the converged strain (R = S with no load; sets tau too)
+                _residual(e, 0.0, mu, kappa, phi_m, bulk, M, phi_f, ginf, eps0, c, q, R, tau, D, False, C, Ci)
+                obs = load[n] * R[0]
+            else:
+                obs = (np.sqrt(1.0 + 2.0 * e[0]) - 1.0) * length_x
             kelvin_history_update(tau, tau_old, h, ea, eh)
             for k in range(nf):
                 tau_old[k] = tau[k]
@@ -286,7 +330,7 @@ def solve_uniaxial_batch(
                 e_prev3[i] = e_prev2[i]
                 e_prev2[i] = e_prev[i]
                 e_prev[i] = e[i]
-            u_out[s, n] = (np.sqrt(1.0 + 2.0 * e[0]) - 1.0) * length_x
+            u_out[s, n] = obs
             if full:
                 for i in range(6):
                     strain[s, n, i] = e[i]

@@ -98,11 +98,11 @@ class ExperimentResiduals:
         if not self.experiments:
             raise ValidationError("experiments", (), "at least one Experiment")
         for e in self.experiments:
-            if e.displacement_mm is None:
-                raise ValidationError(f"experiment {e.name}", "no displacement data", "observed data")
+            if e.observed is None:
+                raise ValidationError(f"experiment {e.name}", f"no {e.observable[0]} data", "observed data")
         self.models = tuple(ForwardModel(e) for e in self.experiments)
         self.sd = np.concatenate([np.full(e.time_s.size, noise_sd(e, sd)) for e in self.experiments])
-        self.observed = np.concatenate([e.displacement_mm for e in self.experiments])
+        self.observed = np.concatenate([e.observed for e in self.experiments])
 
     def predict(self, theta) -> np.ndarray:
         return np.concatenate([m(theta) for m in self.models], axis=-1)

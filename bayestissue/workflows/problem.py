@@ -32,7 +32,8 @@ def paper_parameter_set(
 
     Parameters
     ----------
-    n_fibres : number of fibre systems (3 in the paper: 2 + 3 n_f parameters).
+    n_fibres : number of fibre systems (3 in the paper: 2 + 3 n_f parameters; 0 for a matrix-only material); every
+        family takes Table 1's box and initial guess.
     prior : ``"default"`` (log-uniform for the positive scale parameters mu, kappa, ginf_k, beta_k and uniform
         for gamma_k) or ``"uniform"`` (uniform on the box for all: the literal reading of the paper's
         constraints).
@@ -45,13 +46,14 @@ def paper_parameter_set(
     if prior not in ("default", "uniform"):
         raise ValidationError("prior", prior, "'default' or 'uniform'")
     names = param_names(n_fibres)
+    # Table 1's box and initial guess of each kind (the same for every fibre family): mu, kappa, ginf, gamma, beta
+    kinds = {k: i for i, k in enumerate(("mu", "kappa", "ginf", "gamma", "beta"))}
     bounds = np.asarray(PAPER_BOUNDS, dtype=float)
     init = np.asarray(PAPER_PARAMETERS["initial"], dtype=float)
-    if bounds.shape[0] != len(names):
-        raise ValidationError("n_fibres", n_fibres, f"{(bounds.shape[0] - 2) // 3} (Table 1)")
     specs = []
-    for i, name in enumerate(names):
+    for name in names:
         prefix = name.rstrip("0123456789")
+        i = kinds[prefix]
         p = "uniform" if (prior == "uniform" or prefix == "gamma") else "loguniform"
         specs.append(
             ParameterSpec(
@@ -188,18 +190,21 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
     material = _material(experiments, config)
     terms = []
     for e in experiments:
-        if e.displacement_mm is None:
-            raise ValidationError(f"experiment {e.name}", "no displacement_mm column", "displacement data to fit")
+        quantity, unit, observed = e.observable
+        if observed is None:
+            column = {"displacement": "displacement_mm", "force": "force_mN or nominal_stress_kpa"}[quantity]
+            raise ValidationError(f"experiment {e.name}", f"no {column} column", f"{quantity} data to fit")
         forward = _forward(e, config)
+        exact = isinstance(forward, ForwardModel) and e.controls == "force"
         terms.append(
             ExperimentTerm(
                 e.name,
                 e.time_s,
-                e.displacement_mm,
+                observed,
                 forward,
                 _noise(e, config),
-                {"synthetic": bool(e.synthetic), "source": str(e.source or "")},
-                sensitivities=forward.sensitivities if isinstance(forward, ForwardModel) else None,
+                {"synthetic": bool(e.synthetic), "source": str(e.source or ""), "observable": f"{quantity} ({unit})"},
+                sensitivities=forward.sensitivities if exact else None,
             )
         )
     geometry = creep_geometry(experiments, material.tied) if config.coordinates == "creep" else None

@@ -109,7 +109,7 @@ def test_experiments_share_material_parameters():
 def test_problem_errors():
     fwd = LinearForward(np.ones((4, 1)))
     mat = ParameterSet((ParameterSpec("x0", "1", -1, 1),))
-    with pytest.raises(ValueError, match="experiment T1 observed displacement: expected finite"):
+    with pytest.raises(ValueError, match="experiment T1 observed data: expected finite"):
         ExperimentTerm("T1", np.arange(4.0), np.array([0, np.nan, 1, 2]), fwd)
     with pytest.raises(ValueError, match="experiment T1 data: expected two 1-D arrays"):
         ExperimentTerm("T1", np.arange(3.0), np.zeros(4), fwd)

@@ -63,7 +63,7 @@ def test_bundled_experiments_load():
         (
             'kind = "creep"',
             'kind = "relax"',
-            r"\[protocol\] kind: expected one of \['creep', 'ramp', 'measured'\]",
+            r"\[protocol\] kind: expected one of \['creep', 'ramp', 'measured', 'stretch_ramp'",
         ),
         ("stress_kpa = 10.6", "", r"protocol.stress_kpa: expected a value for 'stress_kpa'"),
         ("dt_s = 6.0", "dt_s = 0", r"\[simulation\] dt_s: expected a number > 0, got 0"),

@@ -45,7 +45,12 @@ def _with(table, key, value):
         ("specimen", "length_x_mm", True, r"\[specimen\] length_x_mm: expected a number > 0, got True"),
         ("specimen", "length_y_mm", -1.0, r"\[specimen\] length_y_mm: expected a number > 0, got -1.0"),
         ("simulation", "dt_s", "6", r"\[simulation\] dt_s: expected a number > 0, got '6'"),
-        ("protocol", "kind", "relax", r"\[protocol\] kind: expected one of \['creep', 'ramp', 'measured'\]"),
+        (
+            "protocol",
+            "kind",
+            "relax",
+            r"\[protocol\] kind: expected one of \['creep', 'ramp', 'measured', 'stretch_ramp'",
+        ),
         ("protocol", "hold_s", 5.0, r"\[protocol\] key: expected one of \['kind', 'stress_kpa'\], got 'hold_s'"),
         ("tissue", "directions", [[0, "y", 0]], r"\[tissue\] directions: expected a list of \[x, y, z\] rows"),
         ("tissue", "phi_fibres", 0.6, r"\[tissue\] phi_fibres: expected a list of numbers, got 0.6"),
