@@ -106,7 +106,7 @@ class ForwardModel:
     def __call__(self, params, *, full: bool = False):
         """The observable ``(n_sets, n_obs)`` at the data times for ``params`` ``(n_sets, n_params)``;
         ``(n_obs,)`` for one set; a :class:`SimulationResult` if ``full`` (see :func:`simulate`)."""
-        e, tissue = self.experiment, self.experiment.tissue
+        tissue = self.experiment.tissue
         p = check_parameters(params, self.names)
         single = p.ndim == 1
         p2 = np.ascontiguousarray(np.atleast_2d(p))
