@@ -31,6 +31,7 @@ STAGES = (
     ("calibration", "calibrate.py"),
     ("identifiability", "identifiability.py"),
     ("T1 vs T2", "t1_vs_t2.py"),
+    ("measured data", "measured_data.py"),
     ("report", "report.py"),
 )
 

@@ -65,9 +65,9 @@ class NoiseModel:
     def _extra_specs(self, tag: str) -> tuple[ParameterSpec, ...]:
         return ()
 
-    def nuisance_specs(self, experiment: str, observed) -> tuple[ParameterSpec, ...]:
+    def nuisance_specs(self, experiment: str, observed, unit: str = "mm") -> tuple[ParameterSpec, ...]:
         """The sampled nuisance parameters of this experiment (empty for a known sd and no
-        extras)."""
+        extras); ``unit`` is the observable's (the sd's)."""
         tag = _tag(experiment)
         specs = []
         if self.sd is None:
@@ -77,7 +77,7 @@ class NoiseModel:
                 obs = np.asarray(observed, dtype=float)
                 hi = float(np.ptp(obs)) if obs.size > 1 and np.ptp(obs) > 0 else 1.0
                 lo = 1e-5 * hi
-            specs.append(ParameterSpec(f"sigma_{tag}", "mm", lo, hi, prior="loguniform"))
+            specs.append(ParameterSpec(f"sigma_{tag}", unit, lo, hi, prior="loguniform"))
         return tuple(specs) + self._extra_specs(tag)
 
     def _sd(self, nuisance: np.ndarray) -> np.ndarray:

@@ -57,6 +57,8 @@ class ExperimentTerm:
         Residual model (default: Gaussian with unknown sd).
     meta : dict
         Free-form provenance (data file, hash ...).
+    unit : str
+        Unit of the observed data and of the noise sd (default mm, a displacement).
     sensitivities : callable, optional
         ``(n_sets, n_material) -> (predictions (n_sets, n_obs), derivatives (n_sets, n_obs, n_material))``: exact
         derivatives of the predictions with respect to the forward model's inputs (NaN rows for failed solves);
@@ -69,6 +71,7 @@ class ExperimentTerm:
     forward: Callable[[np.ndarray], np.ndarray]
     noise: NoiseModel = field(default_factory=GaussianNoise)
     meta: dict = field(default_factory=dict)
+    unit: str = "mm"
     sensitivities: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
 
     def __post_init__(self):
@@ -146,7 +149,7 @@ class CalibrationProblem:
         self._nuis_slices = []
         start = material.n_sampled
         for e in experiments:
-            specs = e.noise.nuisance_specs(e.name, e.observed)
+            specs = e.noise.nuisance_specs(e.name, e.observed, e.unit)
             self._nuis_slices.append(slice(start, start + len(specs)))
             start += len(specs)
             nuisance.extend(specs)

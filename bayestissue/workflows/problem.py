@@ -204,6 +204,7 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
                 forward,
                 _noise(e, config),
                 {"synthetic": bool(e.synthetic), "source": str(e.source or ""), "observable": f"{quantity} ({unit})"},
+                unit=unit,
                 sensitivities=forward.sensitivities if exact else None,
             )
         )

@@ -259,8 +259,9 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
             n_like_max=min(sampler.n_like + options.report_every, cap),
             discard_exploration=options.discard_exploration,
         )
-        if progress is not None:
-            progress(k, int(sampler.n_like), float(sampler.n_eff), bool(sampler.explored), float(sampler.log_z))
+        if progress is not None:  # nautilus has no log Z right after it discards the exploration phase: NaN then
+            log_z = float("nan") if sampler.log_z is None else float(sampler.log_z)
+            progress(k, int(sampler.n_like), float(sampler.n_eff), bool(sampler.explored), log_z)
     n_like, n_failed = problem.n_evaluations - n_eval0, problem.n_failed - n_fail0  # before completing the points
     points, log_w, log_l = sampler.posterior()
     log_w = np.asarray(log_w, dtype=float)

@@ -12,6 +12,7 @@ from bayestissue.workflows.report.causes import causes_section
 from bayestissue.workflows.report.discrepancy import discrepancy_section
 from bayestissue.workflows.report.identify import identifiability_section
 from bayestissue.workflows.report.limitations import limitations_section
+from bayestissue.workflows.report.measured import measured_section
 from bayestissue.workflows.report.resolution import resolution_sections
 
 __all__ = ["report_text"]
@@ -47,4 +48,5 @@ def report_text(A: dict, B: dict, out: Path) -> str:
     s3 = causes_section(B, names, s2["t"], s2["bc"], w)
     resolution_sections(A, names, s1["prof"], s1["post"], s3["R"], s3["f_best"], w)
     limitations_section(A, B, s3["C"], w)
+    measured_section(out, w)
     return "\n".join(L) + "\n"
