@@ -1,6 +1,8 @@
 """Displacement-controlled (stretch-controlled) tests: the kernel against the independent NumPy solver, a round trip
 through the force-controlled path, and the matrix-only closed forms."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -118,3 +120,19 @@ def test_measured_stretch_refusals():
     exp = Experiment("x", SPECIMEN, StretchRampProtocol(1.2, 10.0), TIMES, 5.0)
     with pytest.raises(ValidationError, match="a force-controlled protocol"):
         exp.nominal_stress_kpa()
+
+
+def test_joint_force_and_stretch_controlled_problem():
+    """One posterior over a force-controlled test (displacement observed, mm) and a stretch-controlled one (force
+    observed, mN): shared material parameters, one noise sd each in its own unit, the likelihood finite."""
+    t1 = load_experiment(Path(__file__).resolve().parents[2] / "data" / "T1.toml")
+    relax = Experiment("R", SPECIMEN, PROTOCOLS["relaxation"], TIMES, 5.0)
+    force = ForwardModel(relax)(PAPER_PARAMETERS["T1"])
+    relax = Experiment("R", SPECIMEN, PROTOCOLS["relaxation"], TIMES, 5.0, force_mN=force)
+    problem = build_problem([t1, relax], config_from_mapping(None))
+    sigmas = {s.name: s.unit for s in problem.parameters.specs if s.name.startswith("sigma_")}
+    assert sigmas == {"sigma_T1": "mm", "sigma_R": "mN"}
+    theta = problem.nuisance_estimate(np.asarray(PAPER_PARAMETERS["T1"]))
+    assert np.isfinite(problem.log_posterior(theta))
+    preds = problem.predict(theta[None, :])
+    np.testing.assert_allclose(preds[1][0], force, rtol=1e-12)

@@ -1,0 +1,161 @@
+"""``bayestissue import EXPORT.csv --out DIR``: a testing machine's raw export -> an experiment (TOML + tidy CSV).
+
+The accepted shapes of the export: :mod:`bayestissue.io.machine_export`. The written experiment is loaded back
+before the command reports success, so what it writes is what ``fit`` and ``simulate`` will read.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import re
+from pathlib import Path
+
+import numpy as np
+
+from bayestissue.cli import plain
+
+__all__ = ["register", "run"]
+
+#: Tissues an import can start from: the [tissue] table written (None: the paper's three families, the default).
+TISSUES = {
+    "paper": None,
+    "matrix": {"directions": [], "phi_fibres": [], "phi_matrix": 1.0},
+    "aligned": {"directions": [[1.0, 0.0, 0.0]], "phi_fibres": [0.5], "phi_matrix": 0.5},
+}
+
+
+def register(subparsers) -> None:
+    from bayestissue.io import machine_export
+
+    p = subparsers.add_parser(
+        "import",
+        help="turn a testing machine's CSV export into an experiment (TOML + tidy CSV)",
+        description=plain(machine_export.__doc__),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("export", help="the machine's CSV export")
+    p.add_argument("--out", required=True, help="folder for <name>.toml and <name>.csv")
+    p.add_argument("--name", help="experiment name (default: the export's specimen label, else its file stem)")
+    p.add_argument(
+        "--control",
+        choices=("stretch", "force"),
+        default="stretch",
+        help="stretch (default): the measured extension is prescribed and the force observed; force: the measured "
+        "force is the load and the extension observed",
+    )
+    p.add_argument("--tissue", choices=sorted(TISSUES), default="paper",
+                   help="paper: the slug tissue's three fibre families (default); matrix: isotropic matrix only; "
+                   "aligned: one fibre family along the load (phi 0.5)")  # fmt: skip
+    p.add_argument("--bulk-kpa", type=float, help="bulk modulus of the volumetric penalty (default 1000 kPa)")
+    p.add_argument("--gauge-mm", type=float, help="gauge length (overrides the export's)")
+    p.add_argument("--diameter-mm", type=float, help="diameter of a round specimen (overrides the export's)")
+    p.add_argument("--width-mm", type=float, help="width (with --thickness-mm; overrides the export's)")
+    p.add_argument("--thickness-mm", type=float, help="thickness (with --width-mm)")
+    p.add_argument("--until-s", type=float, help="drop the samples after this time (s)")
+    p.add_argument("--drop", type=float, default=0.5,
+                   help="failure: cut where the load falls below this fraction of its peak (default 0.5)")  # fmt: skip
+    p.add_argument("--no-failure-cut", action="store_true", help="keep the samples after a load drop")
+    p.add_argument("--step-s", type=float, help="resample the data every STEP seconds (default: keep the samples)")
+    p.add_argument("--dt-s", type=float, help="simulation step (default: the data's median step)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing files of the same name")
+    p.set_defaults(func=run, outputs={"--out": ("out", "dir")})
+
+
+def _positive(name: str, value):
+    from bayestissue._validation import check_positive
+
+    return None if value is None else check_positive(name, value)
+
+
+def run(args) -> int:
+    from bayestissue._validation import ValidationError
+    from bayestissue.io.machine_export import prepare, read_machine_export
+    from bayestissue.io.tables import write_table
+    from bayestissue.mechanics import load_experiment
+
+    for name in ("bulk_kpa", "gauge_mm", "diameter_mm", "width_mm", "thickness_mm", "until_s", "step_s", "dt_s"):
+        _positive(f"--{name.replace('_', '-')}", getattr(args, name))
+    if not (0.0 < args.drop < 1.0):
+        raise ValidationError("--drop", args.drop, "a fraction of the peak load in (0, 1)")
+    if (args.width_mm is None) != (args.thickness_mm is None):
+        raise ValidationError("--width-mm/--thickness-mm", "one of them", "both or neither")
+    export = read_machine_export(args.export)
+    src = Path(args.export)
+    gauge = args.gauge_mm or export.gauge_mm
+    if gauge is None:
+        raise ValidationError(f"{src.name} gauge length", "missing", "a 'Gauge length' line or --gauge-mm")
+    if args.diameter_mm:
+        side = float(np.sqrt(np.pi * args.diameter_mm**2 / 4.0))
+        section, note = (side, side), f"circular, diameter {args.diameter_mm:g} mm: a square of the same area"
+    elif args.width_mm:
+        section, note = (args.width_mm, args.thickness_mm), f"width {args.width_mm:g} x thickness {args.thickness_mm:g}"
+    elif export.section_mm:
+        section, note = export.section_mm, export.section_note
+    else:
+        raise ValidationError(
+            f"{src.name} cross-section", "missing", "a 'Diameter' or 'Width' + 'Thickness' line, or --diameter-mm"
+        )
+    columns, trimming = prepare(
+        export, until_s=args.until_s, drop=None if args.no_failure_cut else args.drop, step_s=args.step_s
+    )
+    name = re.sub(r"[^\w.-]", "_", args.name or export.label or src.stem)
+    out = Path(args.out)
+    toml_path, csv_path = out / f"{name}.toml", out / f"{name}.csv"
+    for path in (toml_path, csv_path):
+        if path.exists() and not args.overwrite:
+            raise ValidationError(str(path), "an existing file", "a new file name (or --overwrite)")
+    dt = args.dt_s or float(np.median(np.diff(columns["time_s"])))
+    if args.control == "stretch":
+        observed, protocol = "force_mN", 'kind = "measured_stretch"   # the extension is prescribed'
+    else:
+        observed, protocol = "displacement_mm", 'kind = "measured"           # the force is the load'
+    meta = {
+        "measured": f"yes -- imported from a testing machine's export by bayestissue import ({observed} observed)",
+        "imported from": f"{src.name} (sha256 {hashlib.sha256(src.read_bytes()).hexdigest()})",
+        "specimen label": export.label or "none given",
+        "cross-section": note,
+        "original units": ", ".join(f"{k} {v}" for k, v in export.units.items()),
+        "trimming": trimming,
+    }
+    lines = [
+        f"# Imported by bayestissue import from {src.name}: {trimming}.",
+        f'name = "{name}"',
+        f'description = "{export.label or name}: imported machine export"',
+        "synthetic = false",
+        "",
+        "[specimen]",
+        f"length_x_mm = {gauge!r}      # gauge length",
+        f"length_y_mm = {section[0]!r}   # {note}",
+        f"length_z_mm = {section[1]!r}",
+        "",
+        "[protocol]",
+        protocol,
+        "",
+        "[simulation]",
+        f"dt_s = {dt!r}",
+        "",
+        "[data]",
+        f'file = "{csv_path.name}"',
+    ]
+    tissue = TISSUES[args.tissue]
+    if tissue is not None or args.bulk_kpa is not None:
+        lines += ["", "[tissue]"]
+        for key, value in (tissue or {}).items():
+            lines.append(f"{key} = {value!r}")
+        if args.bulk_kpa is not None:
+            lines.append(f"bulk_kpa = {args.bulk_kpa!r}")
+    out.mkdir(parents=True, exist_ok=True)
+    write_table(csv_path, columns, meta=meta)
+    toml_path.write_text("\n".join(lines) + "\n")
+    try:
+        exp = load_experiment(toml_path)  # what fit and simulate will read
+    except ValueError:
+        toml_path.unlink()
+        csv_path.unlink()
+        raise
+    print(
+        f"wrote {toml_path} and {csv_path}: {exp.time_s.size} rows over {exp.time_s[-1]:g} s, "
+        f"{args.control}-controlled ({exp.observable[0]} observed), {trimming}"
+    )
+    return 0
