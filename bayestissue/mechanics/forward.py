@@ -6,7 +6,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bayestissue._validation import ValidationError
 from bayestissue.mechanics.experiment import Experiment
 from bayestissue.mechanics.fibres import fibre_structure
 from bayestissue.mechanics.sensitivity import sensitivities_uniaxial_batch
@@ -147,30 +146,27 @@ class ForwardModel:
         )
 
     def sensitivities(self, params) -> tuple[np.ndarray, np.ndarray]:
-        r"""Displacements and their exact parameter derivatives at the data times.
+        r"""The observable and its exact parameter derivatives at the data times.
 
-        Returns ``u`` ``(n_sets, n_obs)`` (mm) and ``du`` ``(n_sets, n_obs, n_params)`` with ``du[s, i, j] =
-        \partial u_i / \partial p_j`` in the parameters' own units (mm per kPa, per 1, per 1/s), from a forward run
-        and one differentiation pass over its converged states
+        Returns ``y`` ``(n_sets, n_obs)`` (:meth:`__call__`: mm, or mN / kPa under stretch control) and ``dy``
+        ``(n_sets, n_obs, n_params)`` with ``dy[s, i, j] = \partial y_i / \partial p_j`` in the parameters' own
+        units (per kPa, per 1, per 1/s), from a forward run and one differentiation pass over its converged states
         (:func:`~bayestissue.mechanics.sensitivity.sensitivities_uniaxial_batch`); interpolated to the data times
-        like ``u``. ``(n_obs,)`` and ``(n_obs, n_params)`` for one set; NaN rows for failed sets. Force-controlled
-        experiments only (a stretch-controlled one raises ValidationError).
+        like ``y``. ``(n_obs,)`` and ``(n_obs, n_params)`` for one set; NaN rows for failed sets.
         """
-        if self.stretch_control:
-            raise ValidationError(
-                f"experiment {self.experiment.name} sensitivities",
-                self.experiment.protocol.kind,
-                "a force-controlled protocol (stretch-controlled ones have no exact sensitivities yet)",
-            )
         p = check_parameters(params, self.names)
         single = p.ndim == 1
         p2 = np.ascontiguousarray(np.atleast_2d(p))
         run = self(p2, full=True)
         du = np.empty((p2.shape[0], self.load.size, p2.shape[1]))
-        sensitivities_uniaxial_batch(p2, *self.kernel_inputs, run.strain, run.tension_kpa, run.ok, du)
+        sensitivities_uniaxial_batch(
+            p2, *self.kernel_inputs, run.strain, run.tension_kpa, run.ok, du, self.stretch_control
+        )
         dobs = self.at_data_times(du)
-        u = run.displacement_mm
-        return (u[0], dobs[0]) if single else (u, dobs)
+        if self.scale != 1.0:
+            dobs *= self.scale
+        y = run.observed
+        return (y[0], dobs[0]) if single else (y, dobs)
 
 
 def simulate(experiment: Experiment, params, *, full: bool = False):

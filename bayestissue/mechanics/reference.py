@@ -129,7 +129,9 @@ def reference_simulate_experiment(experiment, params, *, tol=1e-10):
 
 def reference_complex_step(experiment, params, j: int, *, h: float = 1e-30, max_iter: int = 60) -> np.ndarray:
     r"""Complex-step derivative :math:`du_n/dp_j \approx \mathrm{Im}\, u_n(p + i h e_j) / h` at every step
-    (Squire & Trapp 1998, doi:10.1137/S003614459631241X): exact to round-off, no subtractive cancellation.
+    (Squire & Trapp 1998, doi:10.1137/S003614459631241X): exact to round-off, no subtractive cancellation. Under
+    stretch control the observable is the nominal stress :math:`P_{11} = \lambda S_{11}` (kPa) with :math:`E_{11}`
+    prescribed and the other five components solved.
 
     Every step of the test is solved in complex arithmetic with the same equations as :func:`reference_simulate`
     (full 3x3 tensors, :func:`reference_stress`, the Kelvin update of eqs. (5)-(9) including the slack strains
@@ -142,7 +144,10 @@ def reference_complex_step(experiment, params, j: int, *, h: float = 1e-30, max_
     tissue = experiment.tissue
     directions, phi_f = np.asarray(tissue.directions, float), np.asarray(tissue.phi_fibres, float)
     eps0 = np.asarray(tissue.eps0, float)
-    load, dt, length_x = experiment.nominal_stress_kpa(), experiment.dt_s, experiment.specimen_mm[0]
+    load, dt, length_x = experiment.prescribed(), experiment.dt_s, experiment.specimen_mm[0]
+    stretch = experiment.controls == "stretch"  # E11 prescribed, five equations, P11 = lambda S11 observed
+    free = slice(1, 6) if stretch else slice(0, 6)
+    m = free.stop - free.start
     p = np.asarray(params, dtype=complex).copy()
     p[j] += 1j * h
     nf = len(phi_f)
@@ -157,36 +162,53 @@ def reference_complex_step(experiment, params, j: int, *, h: float = 1e-30, max_
     du = np.zeros(len(load))
     for n in range(1, len(load)):
         q = gamma * (ea * hist - eh * tau_old)
+        if stretch:
+            x[0] = 0.5 * (load[n] ** 2 - 1.0)
 
         def trial(eps, q=q):
             pre = (ginf * (eps - eps0) + q) / c
             return np.where(pre.real > 0.0, pre, 0.0)
 
-        def residual(x, P=load[n], trial=trial):
-            E = _symmetric(x)
+        def residual(xf, P=0.0 if stretch else load[n], trial=trial, x11=x[0]):
+            E = _symmetric(np.r_[x11, xf] if stretch else xf)
             S, tau = reference_stress(E, mu, kappa, tissue.phi_matrix, tissue.bulk_kpa, directions, phi_f, trial)
             S[0, 0] -= P / np.sqrt(1.0 + 2.0 * E[0, 0])
-            return S[_IU], tau
+            return S[_IU][free], tau, S[0, 0]
 
-        real = root(lambda xr, residual=residual: residual(xr)[0].real, x.real, method="lm", tol=1e-12)
-        if not real.success:
+        xf = x[free]
+
+        def real_residual(xr, residual=residual):
+            return residual(xr)[0].real
+
+        # the real solve, checked, with the retries of reference_simulate (reloading from slack fibres)
+        for x0, method in ((xf.real, "lm"), (xf.real, "hybr"), (0.0 * xf.real, "lm")):
+            with np.errstate(invalid="ignore", over="ignore"):
+                real = root(real_residual, x0, method=method, tol=1e-12)
+                good = real.success and np.max(np.abs(real_residual(real.x))) <= 1e-8 * max(1.0, abs(load[n]))
+            if good:
+                break
+        else:
             raise RuntimeError(f"complex-step reference: step {n}: {real.message}")
-        x = real.x + 1j * x.imag
-        jac = np.empty((6, 6))
-        for k in range(6):
-            dx = np.zeros(6)
+        xf = real.x + 1j * xf.imag
+        jac = np.empty((m, m))
+        for k in range(m):
+            dx = np.zeros(m)
             dx[k] = 1e-7
-            jac[:, k] = (residual(x.real + dx)[0].real - residual(x.real - dx)[0].real) / 2e-7
+            jac[:, k] = (residual(xf.real + dx)[0].real - residual(xf.real - dx)[0].real) / 2e-7
         for _ in range(max_iter):
-            step = np.linalg.solve(jac, residual(x)[0])
-            x = x - step
-            tol_imag = max(1e-10 * np.abs(x.imag).max(), 1e-16 * h)
+            step = np.linalg.solve(jac, residual(xf)[0])
+            xf = xf - step
+            tol_imag = max(1e-10 * np.abs(xf.imag).max(), 1e-16 * h)
             if np.abs(step.real).max() < 1e-12 and np.abs(step.imag).max() <= tol_imag:
                 break
         else:
             raise RuntimeError(f"complex-step reference: step {n} did not converge")
-        tau = residual(x)[1]
+        x[free] = xf
+        _, tau, s11 = residual(xf)
         hist = ea * hist + eh * (tau - tau_old)
         tau_old = tau
-        du[n] = ((np.sqrt(1.0 + 2.0 * x[0]) - 1.0) * length_x).imag / h
+        if stretch:
+            du[n] = (load[n] * s11).imag / h
+        else:
+            du[n] = ((np.sqrt(1.0 + 2.0 * x[0]) - 1.0) * length_x).imag / h
     return du

@@ -36,6 +36,12 @@ b\,(d\tau^n - d\tau^{n-1})` (eq. (7)), starting from :math:`d\tau_k^0/dg_{\infty
 :math:`\tau_k^0 = -g_{\infty,k}\varepsilon_{0,k} > 0` (eq. (8)) and :math:`dh^0 = 0` (eq. (9)). The observable
 :math:`u = (\sqrt{C_{11}} - 1) L_x` gives :math:`du/dp = L_x (dE_{11}/dp) / \sqrt{C_{11}}`.
 
+Under stretch control (``stretch_control``, :mod:`~bayestissue.mechanics.uniaxial`) :math:`E_{11}` is prescribed,
+so :math:`dE_{11}/dp = 0` and only the five lateral equations are differentiated (row and column 11 of :math:`D`
+replaced by the identity, row 11 of the right-hand sides by zero); the observable :math:`P_{11} = \lambda S_{11}`
+gives :math:`dP_{11}/dp = \lambda\,(\partial S_{11}/\partial p|_E + \sum_j D_{11,j}\, dE_j/dp)` with the
+first row of the full tangent, taken before the replacement.
+
 The tension switch: at :math:`\tilde\tau_k = 0` exactly the kernel takes the compression branch (``trial > 0.0`` is
 False), so the derivative taken there is the one-sided derivative of that branch (:math:`d\tau_k = 0`): the same
 side the forward solution is on, so the sensitivities are those of the function the kernel computes. Away from the
@@ -101,7 +107,9 @@ def _factor_solve6(A, B, X):
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, length_x, strain, tension, ok, du_out):
+def sensitivities_uniaxial_batch(
+    params, M, phi_f, phi_m, bulk, eps0, load, dt, length_x, strain, tension, ok, du_out, stretch_control=False
+):
     """``du_out[s, n, j] = d u_n / d params[s, j]`` from the converged states of a forward run.
 
     Parameters
@@ -111,8 +119,11 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
     strain : (n_sets, n_steps + 1, 6), tension : (n_sets, n_steps + 1, n_f), ok : (n_sets,)
         The forward run's converged Green strains, fibre tensions and success flags (``full=True``).
     du_out : (n_sets, n_steps + 1, 2 + 3 n_f) ndarray, output
-        Sensitivities of the loaded face's x-displacement (mm per parameter unit); NaN rows for failed sets (and
-        for a singular tangent, which a converged state does not have).
+        Sensitivities of the loaded face's x-displacement (mm per parameter unit) -- under ``stretch_control`` of
+        the nominal stress P11 (kPa per parameter unit); NaN rows for failed sets (and for a singular tangent,
+        which a converged state does not have).
+    stretch_control : bool
+        The forward run prescribed the stretch (``load``) instead of the nominal stress.
     """
     n_sets = params.shape[0]
     nf = M.shape[0]
@@ -122,6 +133,8 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
     D = np.empty((6, 6))
     B = np.empty((6, n_p))
     X = np.empty((6, n_p))
+    D0 = np.empty(6)  # stretch control: row 11 of the tangent and of the right-hand sides
+    B0 = np.empty(n_p)
     C = np.empty((3, 3))
     Ci = np.empty((3, 3))
     dmu = np.empty(6)
@@ -183,7 +196,8 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
                 q[k] = gamma[k] * (ea[k] * h[k] - eh[k] * tau_old)
             fibre_stress_tangent(e, M, phi_f, ginf, eps0, c, q, S, D, tau, True)
             c11 = 1.0 + 2.0 * e[0]
-            D[0, 0] += load[n] * c11**-1.5
+            if not stretch_control:
+                D[0, 0] += load[n] * c11**-1.5
             # right-hand sides: the explicit parameter derivatives of R at fixed E
             for i in range(6):
                 for j in range(n_p):
@@ -211,6 +225,15 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
                         w = phi_f[k] * M[k, i]
                         for j in range(n_p):
                             B[i, j] -= w * dtr[k, j]
+            if stretch_control:  # E11 prescribed: keep row 11 for dS11, solve the five lateral equations
+                for i in range(6):
+                    D0[i] = D[0, i]
+                    D[0, i] = 0.0
+                    D[i, 0] = 0.0
+                for j in range(n_p):
+                    B0[j] = B[0, j]
+                    B[0, j] = 0.0
+                D[0, 0] = 1.0
             if not _factor_solve6(D, B, X):
                 good = False
                 break
@@ -232,9 +255,16 @@ def sensitivities_uniaxial_batch(params, M, phi_f, phi_m, bulk, eps0, load, dt, 
                 h[k] = ea[k] * h[k] + eh[k] * (tau_new - tau_old)
                 for j in range(n_p):
                     dtau_old[k, j] = dtau[k, j]
-            f = length_x / np.sqrt(c11)
-            for j in range(n_p):
-                du_out[s, n, j] = f * X[0, j]
+            if stretch_control:  # dP11 = lambda (dS11/dp at fixed E + D[0, :] dE/dp); B holds -dR/dp
+                for j in range(n_p):
+                    ds = -B0[j]
+                    for i in range(6):
+                        ds += D0[i] * X[i, j]
+                    du_out[s, n, j] = load[n] * ds
+            else:
+                f = length_x / np.sqrt(c11)
+                for j in range(n_p):
+                    du_out[s, n, j] = f * X[0, j]
         if not good:
             for n in range(n_t):
                 for j in range(n_p):

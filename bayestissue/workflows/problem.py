@@ -195,7 +195,7 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
             column = {"displacement": "displacement_mm", "force": "force_mN or nominal_stress_kpa"}[quantity]
             raise ValidationError(f"experiment {e.name}", f"no {column} column", f"{quantity} data to fit")
         forward = _forward(e, config)
-        exact = isinstance(forward, ForwardModel) and e.controls == "force"
+        exact = isinstance(forward, ForwardModel)
         terms.append(
             ExperimentTerm(
                 e.name,
