@@ -61,12 +61,11 @@ def run_case(case, data_dir: Path, key: str, out: Path) -> tuple[str, dict]:
     """Calibrate one case, save its figure, return its table row and its numbers."""
     exp = trimmed(load_experiment(data_dir / case.file), case.max_stretch)
     lam, stress = exp.protocol.stretch, exp.observed
-    bounds = {"mu": list(case.bounds_kpa), "kappa": list(case.bounds_kpa)}
     settings = SETTINGS[key]
     extra = {k: settings[k] for k in ("n_predictive", "nested") if k in settings}
     engine = "nested" if case.name.startswith("brain") else "emcee"
     config = config_from_mapping(
-        None, seed=SEED, bounds=bounds, n_starts=settings["n_starts"], sampler=settings["sampler"], engine=engine,
+        None, seed=SEED, n_starts=settings["n_starts"], sampler=settings["sampler"], engine=engine,
         **extra,
     )  # fmt: skip
     t0 = time.perf_counter()

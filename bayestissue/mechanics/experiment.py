@@ -29,6 +29,7 @@ Experiment file format (TOML, with a CSV data file beside it)::
     # step_s = 3.0
 
     [tissue]                              # optional; defaults are the paper's (docs/model.md)
+    preset = "slug"                       # slug | tendon | brain | rubber (docs/presets.md); keys below override
     directions = [[0, 1, 0], [0.9369, 0.342, 0], [0.9369, -0.342, 0]]
     phi_fibres = [0.2, 0.2, 0.2]
     phi_matrix = 0.4
@@ -54,6 +55,7 @@ from bayestissue._validation import ValidationError, check_increasing, check_pos
 from bayestissue.io.tables import read_table
 from bayestissue.io.toml_files import read_toml
 from bayestissue.mechanics.experiment_schema import check_experiment_document
+from bayestissue.mechanics.presets import preset
 from bayestissue.mechanics.protocols import protocol_from_mapping
 from bayestissue.mechanics.tissue import PAPER_TISSUE, TissueConfig
 
@@ -260,12 +262,14 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
     tissue = PAPER_TISSUE
     if "tissue" in doc:
         t = doc["tissue"]
+        base = preset(t.get("preset", "slug"))
         tissue = TissueConfig(
-            directions=t.get("directions", PAPER_TISSUE.directions),
-            phi_fibres=t.get("phi_fibres", PAPER_TISSUE.phi_fibres),
-            phi_matrix=t.get("phi_matrix", PAPER_TISSUE.phi_matrix),
-            bulk_kpa=t.get("bulk_kpa", PAPER_TISSUE.bulk_kpa),
+            directions=t.get("directions", base.tissue.directions),
+            phi_fibres=t.get("phi_fibres", base.tissue.phi_fibres),
+            phi_matrix=t.get("phi_matrix", base.tissue.phi_matrix),
+            bulk_kpa=t.get("bulk_kpa", base.tissue.bulk_kpa),
             eps0=t.get("eps0"),
+            preset=base.name,
         )
     noise = meta.get("noise_sd_mm")
     if noise is not None:

@@ -59,6 +59,8 @@ TABLES: dict[str, dict[str, Key]] = {
         "step_s": Key("float", "without file", "output step (s)", **_POSITIVE),
     },
     "tissue": {
+        "preset": Key("choice", '"slug"', "composition and parameter boxes to start from (docs/presets.md); the keys "
+                      "below override its values", choices=("slug", "tendon", "brain", "rubber")),
         "directions": Key("rows", "the paper's three", "fibre directions, unit vectors within 1 % ([] for a "
                           "matrix-only material)"),
         "phi_fibres": Key("numbers", "[0.2, 0.2, 0.2]", "volume fraction of each fibre family"),

@@ -55,6 +55,9 @@ class TissueConfig:
         Bulk modulus K of the volumetric penalty, kPa (paper: 1000 kPa, Section 3.2).
     eps0 : (n_f,) array_like, optional
         Slack Green strain per fibre (paper: 0).
+    preset : str
+        The preset the composition started from (:mod:`bayestissue.mechanics.presets`); it names the default
+        parameter boxes of a calibration.
     """
 
     directions: np.ndarray
@@ -62,6 +65,7 @@ class TissueConfig:
     phi_matrix: float
     bulk_kpa: float = 1000.0
     eps0: np.ndarray | None = field(default=None)
+    preset: str = "slug"
 
     def __post_init__(self):
         d = np.asarray(self.directions, dtype=float)

@@ -26,25 +26,23 @@ __all__ = ["MeasuredCase", "CASES", "trimmed", "incompressible_fit", "incompress
 
 @dataclass(frozen=True)
 class MeasuredCase:
-    """One calibration of a bundled measured curve: ``file`` (under ``data/measured/``), the largest stretch fitted,
-    and the box of mu and kappa (kPa)."""
+    """One calibration of a bundled measured curve: ``file`` (under ``data/measured/``) and the largest stretch
+    fitted; the boxes of mu and kappa are the file's tissue preset's (docs/presets.md)."""
 
     name: str
     file: str
     max_stretch: float
-    bounds_kpa: tuple[float, float]
     material: str
 
 
 #: Treloar's rubber over stretch <= 3 (where Mooney-Rivlin fits are usually made) and over the whole range (to 7.6,
-#: with the upturn it cannot follow); each brain region over its whole range (to 1.1). Boxes: two decades either side
-#: of the material's known scale (rubber ~0.1-1 MPa; brain ~0.1-1 kPa).
+#: with the upturn it cannot follow); each brain region over its whole range (to 1.1). Boxes: the presets ``rubber``
+#: ([1, 1e5] kPa) and ``brain`` ([1e-4, 100] kPa), two to three decades either side of the material's known scale.
 CASES = (
-    MeasuredCase("treloar_to_3", "treloar_1944.toml", 3.0, (1.0, 1.0e5), "rubber (Treloar 1944)"),
-    MeasuredCase("treloar_all", "treloar_1944.toml", np.inf, (1.0, 1.0e5), "rubber (Treloar 1944)"),
-    MeasuredCase("brain_basal_ganglia", "budday_2017_basal_ganglia.toml", np.inf, (1.0e-4, 100.0),
-                 "brain, basal ganglia (Budday 2017)"),
-    MeasuredCase("brain_corpus_callosum", "budday_2017_corpus_callosum.toml", np.inf, (1.0e-4, 100.0),
+    MeasuredCase("treloar_to_3", "treloar_1944.toml", 3.0, "rubber (Treloar 1944)"),
+    MeasuredCase("treloar_all", "treloar_1944.toml", np.inf, "rubber (Treloar 1944)"),
+    MeasuredCase("brain_basal_ganglia", "budday_2017_basal_ganglia.toml", np.inf, "brain, basal ganglia (Budday 2017)"),
+    MeasuredCase("brain_corpus_callosum", "budday_2017_corpus_callosum.toml", np.inf,
                  "brain, corpus callosum (Budday 2017)"),
 )  # fmt: skip
 

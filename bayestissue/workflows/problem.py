@@ -18,6 +18,7 @@ import numpy as np
 from bayestissue._validation import ValidationError
 from bayestissue.inference import CalibrationProblem, ExperimentTerm, ParameterSet, ParameterSpec, make_noise
 from bayestissue.mechanics import ForwardModel, param_names, parse_parameters
+from bayestissue.mechanics.presets import preset
 from bayestissue.paper import PAPER_BOUNDS, PAPER_PARAMETERS, PARAM_UNITS
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.forward import SpecimenForward, noise_sd, specimen_spec
@@ -26,7 +27,7 @@ __all__ = ["paper_parameter_set", "build_problem", "creep_geometry", "reference_
 
 
 def paper_parameter_set(
-    n_fibres: int = 3, *, prior: str = "default", fixed_inputs: Mapping | None = None
+    n_fibres: int = 3, *, prior: str = "default", fixed_inputs: Mapping | None = None, boxes: Mapping | None = None
 ) -> ParameterSet:
     """The paper's parameters with Table 1 bounds and the paper's initial guess as ``value``.
 
@@ -38,6 +39,9 @@ def paper_parameter_set(
         for gamma_k) or ``"uniform"`` (uniform on the box for all: the literal reading of the paper's
         constraints).
     fixed_inputs : recorded non-parameter inputs (volume fractions, directions, K, eps0).
+    boxes : the box of each parameter kind (``mu``, ..., ``beta``) where it differs from Table 1 (a tissue preset's,
+        :mod:`bayestissue.mechanics.presets`); the initial value is then the box's geometric (gamma: arithmetic)
+        midpoint.
 
     References
     ----------
@@ -55,15 +59,19 @@ def paper_parameter_set(
         prefix = name.rstrip("0123456789")
         i = kinds[prefix]
         p = "uniform" if (prior == "uniform" or prefix == "gamma") else "loguniform"
+        lo, hi, value = bounds[i, 0], bounds[i, 1], init[i]
+        if boxes and prefix in boxes and tuple(boxes[prefix]) != (lo, hi):
+            lo, hi = (float(x) for x in boxes[prefix])
+            value = 0.5 * (lo + hi) if prefix == "gamma" else float(np.sqrt(lo * hi))
         specs.append(
             ParameterSpec(
                 name=name,
                 unit=PARAM_UNITS[prefix],
-                lower=bounds[i, 0],
-                upper=bounds[i, 1],
+                lower=lo,
+                upper=hi,
                 prior=p,
                 scale="linear" if prefix == "gamma" else "log",
-                value=init[i],
+                value=value,
             )
         )
     return ParameterSet(tuple(specs), dict(fixed_inputs or {}))
@@ -127,7 +135,12 @@ def _material(experiments, config: CalibrationConfig) -> ParameterSet:
     n_f = {e.tissue.n_fibres for e in experiments}
     if len(n_f) != 1:
         raise ValidationError("experiments", sorted(n_f), "the same number of fibre systems")
-    material = paper_parameter_set(n_f.pop(), prior=config.prior, fixed_inputs=_fixed_inputs(experiments))
+    presets = {e.tissue.preset for e in experiments}
+    if len(presets) != 1:
+        raise ValidationError("experiments' tissue presets", sorted(presets), "one preset (one material)")
+    material = paper_parameter_set(
+        n_f.pop(), prior=config.prior, fixed_inputs=_fixed_inputs(experiments), boxes=preset(presets.pop()).boxes
+    )
     fixed = config.fixed
     fixed_map = dict(fixed) if isinstance(fixed, Mapping) else {n: None for n in fixed}
     if config.sampled is not None:
