@@ -88,8 +88,8 @@ def run_case(case, data_dir: Path, key: str, out: Path) -> tuple[str, dict]:
             f"closed form, incompressible: mu {mu_cf:.4g}, kappa {kappa_cf:.4g} kPa": (lam - lam**-2)
             * (mu_cf + kappa_cf / lam),
         },
-        title=f"{case.material}, stretch <= {lam.max():.3g}: Mooney-Rivlin matrix "
-        f"({'CONVERGED' if outcome.report.converged else 'NOT CONVERGED'})",
+        title=f"{case.material}, stretch <= {lam.max():.3g}\nMooney-Rivlin matrix: "
+        f"{'CONVERGED' if outcome.report.converged else 'NOT CONVERGED'}",
     )
     fig.savefig(out / f"measured_{case.name}.png", dpi=110)
     plt.close(fig)

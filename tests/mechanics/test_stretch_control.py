@@ -158,3 +158,18 @@ def test_joint_force_and_stretch_controlled_problem():
     assert np.isfinite(problem.log_posterior(theta))
     preds = problem.predict(theta[None, :])
     np.testing.assert_allclose(preds[1][0], force, rtol=1e-12)
+
+
+def test_failed_set_is_a_nan_row():
+    """Without matrix stiffness the lateral equations have no stiffness in shear under stretch control: that set's
+    solve fails and comes back as a NaN row; the sets beside it in the batch are those computed alone."""
+    exp = Experiment("x", SPECIMEN, PROTOCOLS["relaxation"], TIMES, 5.0)
+    bad = PAPER_PARAMETERS["T1"].copy()
+    bad[0] = bad[1] = 0.0
+    fm = ForwardModel(exp)
+    out = fm(np.stack([PAPER_PARAMETERS["T1"], bad, PAPER_PARAMETERS["T2"]]))
+    assert np.isnan(out[1]).all() and np.isfinite(out[[0, 2]]).all()
+    np.testing.assert_array_equal(out[0], fm(PAPER_PARAMETERS["T1"]))
+    np.testing.assert_array_equal(out[2], fm(PAPER_PARAMETERS["T2"]))
+    _, dy = fm.sensitivities(np.stack([PAPER_PARAMETERS["T1"], bad]))
+    assert np.isnan(dy[1]).all() and np.isfinite(dy[0]).all()
