@@ -9,7 +9,9 @@ Examples::
 ``analyse`` registers the sections, segments them by colour, counts a random-offset point grid on a
 systematic sample of sections and traces the muscle cells, then writes ``point_counts.csv``,
 ``lines.csv`` (+ ``lines.toml``, the probed volume), ``registration.csv``,
-``segmentation_sensitivity.csv``, ``summary.json`` and ``overlay.png`` into ``--out``.
+``segmentation_sensitivity.csv``, ``summary.json`` and ``overlay.png`` into ``--out``. The source is a folder of
+PNG, JPEG or TIFF sections or one multi-page TIFF; the pixel size is ``--pixel-size-um`` or, without it, the one
+the (first) TIFF's metadata states (resolution tags or ImageJ's unit); PNG and JPEG state none.
 """
 
 from __future__ import annotations
@@ -89,8 +91,12 @@ def register(subparsers) -> None:
         help="one PNG per section, or one multi-page TIFF (default png)",
     )
     a = sub.add_parser("analyse", help="run the pipeline on a folder or multi-page TIFF")
-    a.add_argument("source", help="folder of PNG/TIFF sections or a multi-page TIFF")
-    a.add_argument("--pixel-size-um", type=float, required=True)
+    a.add_argument("source", help="folder of PNG/JPEG/TIFF sections or a multi-page TIFF")
+    a.add_argument(
+        "--pixel-size-um",
+        type=float,
+        help="pixel size in um (default: the one the TIFF metadata states; required for PNG/JPEG or a TIFF without)",
+    )
     a.add_argument("--section-thickness-um", type=float, required=True)
     a.add_argument("--out", required=True, help="output folder")
     a.set_defaults(outputs={"--out": ("out", "dir")})
@@ -126,12 +132,42 @@ def run(args) -> int:
     return _run_analyse(args)
 
 
+def _pixel_size(source, given: float | None) -> float:
+    """``--pixel-size-um``, else what the (first) TIFF states; a one-line refusal when neither gives one."""
+    from bayestissue._validation import ValidationError, check_positive
+    from bayestissue.io.micrographs import IMAGE_SUFFIXES, tiff_pixel_size_um
+
+    src = Path(source)
+    first = src
+    if src.is_dir():
+        files = sorted(p for p in src.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        first = files[0] if files else src
+    stated = None
+    if first.is_file() and first.suffix.lower() in (".tif", ".tiff"):
+        try:
+            stated = tiff_pixel_size_um(first)
+        except Exception:  # an unreadable file is named by the reader, with its own message
+            stated = None
+    if given is not None:
+        given = check_positive("--pixel-size-um", given)
+        if stated is not None and abs(stated / given - 1) > 1e-3:
+            print(f"note: using --pixel-size-um {given:g}; {first.name} states {stated:.6g} um", file=sys.stderr)
+        return given
+    if stated is None:
+        raise ValidationError(
+            "--pixel-size-um", "not given", "the pixel size in um", f"{first.name} states none in its metadata"
+        )
+    print(f"pixel size {stated:.6g} um, from the metadata of {first.name}", file=sys.stderr)
+    return stated
+
+
 def _run_analyse(args) -> int:
     from tqdm import tqdm
 
     from bayestissue.plotting.micrographs import plot_overlay
 
     t0 = time.perf_counter()
+    args.pixel_size_um = _pixel_size(args.source, args.pixel_size_um)
     images, names = read_micrographs(args.source)
     imgs = check_rgb_stack(images)
     out = Path(args.out)

@@ -1,8 +1,9 @@
-"""Serial micrographs on disk: a folder of PNG/TIFF sections or one multi-page TIFF, plus the
+"""Serial micrographs on disk: a folder of PNG/JPEG/TIFF sections or one multi-page TIFF, plus the
 phantom's truth (JSON).
 
 A folder is read in natural sort order of the file names (``s2.png`` before ``s10.png``); every
-section must have the same size and the same number of channels.
+section must have the same size and the same number of channels. The pixel size can come from a
+TIFF's own metadata (:func:`tiff_pixel_size_um`: the resolution tags, or ImageJ's unit).
 """
 
 from __future__ import annotations
@@ -17,9 +18,16 @@ import tifffile
 
 from bayestissue._validation import ValidationError
 
-__all__ = ["IMAGE_SUFFIXES", "read_micrographs", "write_micrographs", "write_truth", "read_truth"]
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "read_micrographs",
+    "tiff_pixel_size_um",
+    "write_micrographs",
+    "write_truth",
+    "read_truth",
+]
 
-IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 
 
 def _natural_key(path: Path):
@@ -40,6 +48,8 @@ def _to_uint8(img: np.ndarray, name: str) -> np.ndarray:
 #: The first bytes of each accepted format (a file whose bytes do not start so is not that image, whatever its suffix).
 _SIGNATURES = {
     ".png": (b"\x89PNG\r\n\x1a\n",),
+    ".jpg": (b"\xff\xd8\xff",),
+    ".jpeg": (b"\xff\xd8\xff",),
     ".tif": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
     ".tiff": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
 }
@@ -62,12 +72,46 @@ def _read_image(path: Path) -> np.ndarray:
         raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", expected) from None
 
 
+#: micrometres per unit of the TIFF ResolutionUnit tag (2 inch, 3 centimetre) and of ImageJ's ``unit`` entry
+_UNIT_UM = {
+    2: 25400.0, 3: 10000.0, "micron": 1.0, "microns": 1.0, "um": 1.0, "\u00b5m": 1.0, "\\u00b5m": 1.0,
+    "micrometer": 1.0, "micrometre": 1.0, "nm": 1e-3, "mm": 1e3, "cm": 1e4, "m": 1e6, "inch": 25400.0,
+}  # fmt: skip
+
+
+def tiff_pixel_size_um(path: str | Path) -> float | None:
+    """The pixel size (um) a TIFF states, or None if it states none.
+
+    From the XResolution tag (pixels per ResolutionUnit: inch or centimetre), or, where the unit is "none" (as
+    ImageJ writes it), from ImageJ's ``unit`` entry in the image description (micron, nm, mm ...). A resolution of
+    72 pixels per inch with no ImageJ unit is the writers' default, not a measurement: None.
+    """
+    import tifffile
+
+    with tifffile.TiffFile(path) as tif:
+        page = tif.pages[0]
+        tags = page.tags
+        if "XResolution" not in tags:
+            return None
+        num, den = tags["XResolution"].value
+        if not num or not den:
+            return None
+        per_unit = num / den
+        unit = int(tags["ResolutionUnit"].value) if "ResolutionUnit" in tags else 2
+        ij = tif.imagej_metadata or {}
+        if unit in (2, 3) and not (unit == 2 and abs(per_unit - 72.0) < 1e-9 and "unit" not in ij):
+            return _UNIT_UM[unit] / per_unit
+        name = str(ij.get("unit", "")).strip().lower()
+        return _UNIT_UM[name] / per_unit if name in _UNIT_UM else None
+
+
 def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:
-    """Read a stack of sections from a folder of PNG/TIFF files or a multi-page TIFF.
+    """Read a stack of sections from a folder of PNG/JPEG/TIFF files or a multi-page TIFF.
 
     Parameters
     ----------
-    source : folder, or a .tif/.tiff file whose pages (or first axis) are the sections.
+    source : folder of PNG, JPEG or TIFF sections, or a .tif/.tiff file whose pages (or first axis) are the
+        sections.
 
     Returns
     -------
@@ -97,7 +141,7 @@ def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:
         imgs = [_to_uint8(x, f"{src.name} page {k}") for k, x in enumerate(a)]
         names = [f"{src.name}[{k}]" for k in range(len(imgs))]
     else:
-        raise ValidationError("source", str(src), "a folder of PNG/TIFF sections or a multi-page .tif/.tiff file")
+        raise ValidationError("source", str(src), "a folder of PNG/JPEG/TIFF sections or a multi-page .tif/.tiff file")
     shapes = [im.shape for im in imgs]
     if len(set(shapes)) != 1:
         k = next(i for i, s in enumerate(shapes) if s != shapes[0])
