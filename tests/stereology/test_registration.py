@@ -66,3 +66,16 @@ def test_bad_registration_input(section):
         estimate_rigid(section, np.ones_like(section))
     with pytest.raises(ValidationError, match="angle_step_deg: expected a number > 0"):
         estimate_rigid(section, section, angle_step_deg=0)
+
+
+def test_apply_transforms_keeps_8_bit_sections_8_bit():
+    """No float64 copy of the stack: 8-bit sections come back 8-bit, the float result rounded (<= 0.5 grey level)."""
+    from bayestissue.stereology.micrographs.registration import apply_transforms
+
+    rng = np.random.default_rng(0)
+    images = rng.integers(0, 256, size=(3, 40, 50, 3), dtype=np.uint8)
+    T = np.stack([rigid_matrix(a, tx, ty, (25.0, 20.0)) for a, tx, ty in ((0, 0, 0), (2.0, 1.5, -0.7), (-3, 2, 1))])
+    out = apply_transforms(images, T)
+    ref = apply_transforms(images.astype(float), T)
+    assert out.dtype == np.uint8 and ref.dtype == float
+    assert np.abs(out - ref).max() <= 0.5 + 1e-9

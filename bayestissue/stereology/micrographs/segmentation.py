@@ -120,7 +120,10 @@ def estimate_stain_vectors(
     """
     rng = np.random.default_rng(rng)
     check_interval("percentile", percentile, 0.0, 50.0, closed=(True, False))
-    od = optical_density(check_rgb_stack(images)).reshape(-1, 3)
+    rgb = check_rgb_stack(images).reshape(-1, 3)
+    if len(rgb) > 20 * max_pixels:  # a uniform subsample first: no float copy of the whole stack
+        rgb = rgb[rng.choice(len(rgb), 20 * max_pixels, replace=False)]
+    od = optical_density(rgb)
     od = od[np.linalg.norm(od, axis=1) > background_od]
     if len(od) < 10:
         raise ValidationError("images", f"{len(od)} stained pixels", "stained tissue (OD norm > background_od)")
@@ -141,13 +144,19 @@ def estimate_stain_vectors(
 
 
 def _features(images, method, stains, scale=None):
-    """Per-pixel (tissue, smc) features; ``scale`` = typical amount of each pure stain."""
+    """Per-pixel (tissue, smc) features, float32 ``(n, H, W)`` each, computed section by section (no float64 copy
+    of the whole stack); ``scale`` = typical amount of each pure stain."""
+    shape = images.shape[:3]
+    f_t = np.empty(shape, dtype=np.float32)
     if method == "deconvolution":
-        od = optical_density(images)
-        norm = np.linalg.norm(od, axis=-1)
-        c = np.clip(od @ np.linalg.pinv(stains), 0, None)
+        unmix = np.linalg.pinv(stains)
+        c = np.empty(shape + (2,), dtype=np.float32)
+        for i, section in enumerate(images):
+            od = optical_density(section)
+            f_t[i] = np.linalg.norm(od, axis=-1)
+            c[i] = np.clip(od @ unmix, 0, None)
         if scale is None:  # typical pure-stain amounts, from clearly stained pixels
-            tissue = norm > threshold_otsu(norm) if np.ptp(norm) > 0 else norm > 0
+            tissue = f_t > threshold_otsu(f_t) if np.ptp(f_t) > 0 else f_t > 0
             red = tissue & (c[..., 0] > c[..., 1])
             blue = tissue & (c[..., 0] <= c[..., 1])
             scale = np.array(
@@ -155,12 +164,15 @@ def _features(images, method, stains, scale=None):
                  np.median(c[..., 1][blue]) if blue.any() else 1.0]
             )  # fmt: skip
             scale = np.where(scale > 0, scale, 1.0)
-        c = c / scale
-        share = c[..., 0] / np.maximum(c[..., 0] + c[..., 1], 1e-9)
-        return norm, share, scale
-    lab = rgb2lab(_as_unit_float(images))
-    hue = np.degrees(np.arctan2(lab[..., 2], lab[..., 1]))
-    return -lab[..., 0], hue, None  # -L so that "tissue" is above the threshold, as for OD
+        c /= scale.astype(np.float32)
+        share = c[..., 0] / np.maximum(c[..., 0] + c[..., 1], np.float32(1e-9))
+        return f_t, share, scale
+    hue = np.empty(shape, dtype=np.float32)
+    for i, section in enumerate(images):
+        lab = rgb2lab(_as_unit_float(section))
+        f_t[i] = -lab[..., 0]  # -L so that "tissue" is above the threshold, as for OD
+        hue[i] = np.degrees(np.arctan2(lab[..., 2], lab[..., 1]))
+    return f_t, hue, None
 
 
 def _classify(f_tissue, f_smc, t_tissue, t_smc):
