@@ -40,6 +40,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress at INFO level")
+    parser.add_argument(
+        "-q", "--quiet", dest="global_quiet", action="store_true",
+        help="no progress bars in any command (before the command: bayestissue --quiet fit ...)",
+    )  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in _COMMANDS:
         importlib.import_module(f"bayestissue.cli.{name}").register(sub)
@@ -61,6 +65,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(message)s")
+    if args.global_quiet:  # every command's own switch
+        args.no_progress = args.quiet = True
     try:
         _check_outputs(args)
         return int(args.func(args) or 0)

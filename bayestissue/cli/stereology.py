@@ -175,7 +175,8 @@ def _replicates(args) -> int:
     ls = LineSystem.from_file(args.lines)
     from tqdm import tqdm
 
-    with tqdm(total=args.n_boot, unit="replicate", desc="direction bootstrap", file=sys.stderr) as bar:
+    with tqdm(total=args.n_boot, unit="replicate", desc="direction bootstrap", file=sys.stderr,
+              disable=getattr(args, "quiet", False)) as bar:  # fmt: skip
         cols, info = stereology_replicates(
             pc,
             ls,
