@@ -73,7 +73,11 @@ def main(argv=None):
     )  # fmt: skip
     fig.savefig(fig_dir / "micrographs_overlay.png", dpi=110)
     elapsed = time.perf_counter() - t0
-    md = validation_markdown(main_run, sep, argv if argv is not None else [], elapsed, rows, graze)
+    shown = list(argv if argv is not None else [])
+    if "--out" in shown:  # the output folder is where the table is, not how it was made
+        k = shown.index("--out")
+        del shown[k : k + 2]
+    md = validation_markdown(main_run, sep, shown, elapsed, rows, graze)
     (fig_dir / "micrographs_validation.md").write_text(md)
     print(md)
     print(f"micrograph_validation ({size}) took {elapsed:.1f} s")

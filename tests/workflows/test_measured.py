@@ -61,6 +61,7 @@ def test_measured_section_from_numbers(tmp_path):
     measured_section(tmp_path, lines.append)
     text = "\n".join(lines)
     assert "84 times larger" in text and "(-1.5e+03 kPa)" in text
+    assert "; both inside the posterior's 90 % intervals" in text  # 208.7 / 207.7 in [184.5, 236.6] / [151.8, 255.4]
     assert text.count("| rubber |") == 2
     empty = []
     measured_section(tmp_path / "missing", empty.append)

@@ -41,7 +41,7 @@ def measured_section(out: Path, w) -> None:
         w(
             f"- **Where the model cannot follow the data.** Up to stretch {a['stretch'][1]:.3g} the Mooney-Rivlin "
             f"matrix fits Treloar's rubber with a noise sd of {a['posterior']['sd'][0]:.3g} kPa (least-squares rms "
-            f"{a['least_squares']['rms']:.3g} kPa; stresses up to about 700 kPa). Over the whole range to "
+            f"{a['least_squares']['rms']:.3g} kPa). Over the whole range to "
             f"{b['stretch'][1]:.3g} it cannot follow the upturn above a stretch of about 5-6 (finite chain "
             f"extensibility, which the law does not have): the noise sd absorbs the misfit, "
             f"{b['posterior']['sd'][0]:.3g} kPa, {b['posterior']['sd'][0] / a['posterior']['sd'][0]:.0f} times "
@@ -50,11 +50,15 @@ def measured_section(out: Path, w) -> None:
             "(mu, kappa) are conditional on the law, and here kappa sits at the lower end of its box, where the "
             f"unconstrained closed-form fit puts it below zero ({b['closed_form']['kappa']:.3g} kPa).\n"
         )
+        fits = [a["closed_form"], a["least_squares"]]
+        inside = all(a["posterior"][k][1] <= f[k] <= a["posterior"][k][2] for f in fits for k in ("mu", "kappa"))
         w(
             f"- **Independent check.** The closed-form incompressible least-squares fit over stretch <= "
             f"{a['stretch'][1]:.3g} gives mu {a['closed_form']['mu']:.4g}, kappa {a['closed_form']['kappa']:.4g} "
             f"kPa; our compressible model's least squares (K = 2 GPa) gives {a['least_squares']['mu']:.4g}, "
-            f"{a['least_squares']['kappa']:.4g} kPa; both inside the posterior's 90 % intervals.\n"
+            f"{a['least_squares']['kappa']:.4g} kPa; "
+            + ("both inside" if inside else "not both inside")
+            + " the posterior's 90 % intervals.\n"
         )
     brains = [c for c in S["cases"] if c["name"].startswith("brain")]
     if brains:
