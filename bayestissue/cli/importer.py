@@ -14,15 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from bayestissue.cli import plain
+from bayestissue.mechanics.presets import PRESETS
 
 __all__ = ["register", "run"]
-
-#: Tissues an import can start from: the [tissue] table written (None: the paper's three families, the default).
-TISSUES = {
-    "paper": None,
-    "matrix": {"directions": [], "phi_fibres": [], "phi_matrix": 1.0},
-    "aligned": {"directions": [[1.0, 0.0, 0.0]], "phi_fibres": [0.5], "phi_matrix": 0.5},
-}
 
 
 def register(subparsers) -> None:
@@ -44,10 +38,10 @@ def register(subparsers) -> None:
         help="stretch (default): the measured extension is prescribed and the force observed; force: the measured "
         "force is the load and the extension observed",
     )
-    p.add_argument("--tissue", choices=sorted(TISSUES), default="paper",
-                   help="paper: the slug tissue's three fibre families (default); matrix: isotropic matrix only; "
-                   "aligned: one fibre family along the load (phi 0.5)")  # fmt: skip
-    p.add_argument("--bulk-kpa", type=float, help="bulk modulus of the volumetric penalty (default 1000 kPa)")
+    p.add_argument("--tissue", choices=sorted(PRESETS), default="slug",
+                   help="tissue preset (docs/presets.md): slug, the paper's three fibre families (default); tendon, "
+                   "one family along the load; brain and rubber, matrix only; each with its boxes")  # fmt: skip
+    p.add_argument("--bulk-kpa", type=float, help="bulk modulus of the volumetric penalty (default: the preset's)")
     p.add_argument("--gauge-mm", type=float, help="gauge length (overrides the export's)")
     p.add_argument("--diameter-mm", type=float, help="diameter of a round specimen (overrides the export's)")
     p.add_argument("--width-mm", type=float, help="width (with --thickness-mm; overrides the export's)")
@@ -138,11 +132,8 @@ def run(args) -> int:
         "[data]",
         f'file = "{csv_path.name}"',
     ]
-    tissue = TISSUES[args.tissue]
-    if tissue is not None or args.bulk_kpa is not None:
-        lines += ["", "[tissue]"]
-        for key, value in (tissue or {}).items():
-            lines.append(f"{key} = {value!r}")
+    if args.tissue != "slug" or args.bulk_kpa is not None:
+        lines += ["", "[tissue]", f'preset = "{args.tissue}"']
         if args.bulk_kpa is not None:
             lines.append(f"bulk_kpa = {args.bulk_kpa!r}")
     out.mkdir(parents=True, exist_ok=True)

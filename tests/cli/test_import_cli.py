@@ -49,14 +49,14 @@ def test_import_stretch_controlled(tmp_path, capsys):
     """Units converted (N -> mN), the round section turned into a square of the same area, the failure cut after the
     peak, the experiment loads as stretch-controlled with the force observed, and it simulates."""
     src = _write(tmp_path, TENDON)
-    assert main(["import", str(src), "--out", str(tmp_path / "out"), "--tissue", "aligned"]) == 0
+    assert main(["import", str(src), "--out", str(tmp_path / "out"), "--tissue", "tendon"]) == 0
     assert "6 rows over 2.5 s" in capsys.readouterr().out
     exp = load_experiment(tmp_path / "out" / "tendon_07.toml")
     assert exp.controls == "stretch" and exp.observable[:2] == ("force", "mN")
     np.testing.assert_allclose(exp.force_mN, [10, 210, 420, 640, 850, 1020])
     np.testing.assert_allclose(exp.prescribed()[-1], 1 + 0.25 / 25.0)
     assert exp.area_mm2 == pytest.approx(np.pi * 2.1**2 / 4, rel=1e-12)
-    assert exp.tissue.n_fibres == 1 and not exp.synthetic
+    assert exp.tissue.n_fibres == 1 and exp.tissue.preset == "tendon" and not exp.synthetic
     assert np.all(np.isfinite(simulate(exp, [10.0, 10.0, 1000.0, 0.5, 1.0])))
 
 
@@ -65,7 +65,7 @@ def test_import_force_controlled_other_shape(tmp_path):
     --control force makes the force the load and the displacement the observable; --step-s resamples."""
     src = _write(tmp_path, SKIN)
     code = main(["import", str(src), "--out", str(tmp_path), "--control", "force", "--step-s", "0.5", "--tissue",
-                 "matrix", "--name", "skin"])  # fmt: skip
+                 "rubber", "--name", "skin"])  # fmt: skip
     assert code == 0
     exp = load_experiment(tmp_path / "skin.toml")
     assert exp.controls == "force" and exp.observable[:2] == ("displacement", "mm")
