@@ -17,6 +17,8 @@ import numpy as np
 
 __all__ = [
     "PARAMETER_KINDS",
+    "KIND_BOUNDS",
+    "KIND_INITIAL",
     "PARAM_UNITS",
     "PAPER_PARAMETERS",
     "PAPER_BOUNDS",
@@ -49,6 +51,10 @@ for _v in PAPER_PARAMETERS.values():
 #: Table 1 box constraints [min, max] per parameter (same order).
 PAPER_BOUNDS = np.array([[0.001, 1000], [0.001, 1000]] + [[0.001, 1000], [0.1, 0.95], [0.00001, 2.5]] * 3, dtype=float)
 PAPER_BOUNDS.setflags(write=False)
+
+#: Table 1's box and initial guess of each parameter kind (the same for every fibre family).
+KIND_BOUNDS = {k: (float(lo), float(hi)) for k, (lo, hi) in zip(PARAMETER_KINDS, PAPER_BOUNDS[:5], strict=True)}
+KIND_INITIAL = {k: float(v) for k, v in zip(PARAMETER_KINDS, PAPER_PARAMETERS["initial"][:5], strict=True)}
 
 #: Section 3.1: the three SMC directions as printed (v1 along y; v2, v3 in the x-y plane, |v| = 0.99737).
 PAPER_DIRECTIONS_PRINTED = ((0.0, 1.0, 0.0), (0.9369, 0.3420, 0.0), (0.9369, -0.3420, 0.0))

@@ -177,7 +177,7 @@ class Experiment:
         force control, the stretch of the loaded face (1 at t = 0) under stretch control."""
         if self.controls == "force":
             return self.nominal_stress_kpa()
-        lam = np.asarray(self.protocol.stretch_at(self.step_time_s, self.specimen_mm[0]), dtype=float)
+        lam = np.asarray(self.protocol.stretch_at(self.step_time_s), dtype=float)
         lam[0] = 1.0
         return lam
 

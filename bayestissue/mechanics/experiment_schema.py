@@ -15,10 +15,21 @@ from collections.abc import Mapping
 
 from bayestissue._schema import Key, check_table, reference_rows
 from bayestissue._validation import check_known_keys
+from bayestissue.mechanics.presets import PRESETS
 
 __all__ = ["TABLES", "PROTOCOL_KEYS", "check_experiment_document", "reference_markdown"]
 
 _POSITIVE = {"low": 0.0, "low_open": True}
+
+#: The ``[protocol]`` keys each kind takes (a ramp's ``stress_kpa`` is a mistake, not an extra).
+PROTOCOL_KEYS = {
+    "creep": ("kind", "stress_kpa"),
+    "ramp": ("kind", "hold_stress_kpa", "hold_s", "rate_kpa_per_s"),
+    "measured": ("kind", "force_column"),
+    "stretch_ramp": ("kind", "stretch", "ramp_s"),
+    "stretch_cycles": ("kind", "stretch", "period_s"),
+    "measured_stretch": ("kind", "stretch_column"),
+}
 
 #: The keys of each table ("" is the top level).
 TABLES: dict[str, dict[str, Key]] = {
@@ -35,7 +46,7 @@ TABLES: dict[str, dict[str, Key]] = {
     "protocol": {
         "kind": Key("choice", "required", "force control: creep, ramp, a measured force history; stretch control: "
                     "stretch_ramp, stretch_cycles, a measured stretch history",
-                    choices=("creep", "ramp", "measured", "stretch_ramp", "stretch_cycles", "measured_stretch")),
+                    choices=tuple(PROTOCOL_KEYS)),
         "stress_kpa": Key("float", "required (creep)", "constant nominal stress from the first step on (kPa)"),
         "hold_stress_kpa": Key("float", "required (ramp)", "nominal stress held first (kPa)"),
         "hold_s": Key("float", "required (ramp)", "duration of the hold (s)", low=0.0),
@@ -60,7 +71,7 @@ TABLES: dict[str, dict[str, Key]] = {
     },
     "tissue": {
         "preset": Key("choice", '"slug"', "composition and parameter boxes to start from (docs/presets.md); the keys "
-                      "below override its values", choices=("slug", "tendon", "brain", "rubber")),
+                      "below override its values", choices=tuple(PRESETS)),
         "directions": Key("rows", "the paper's three", "fibre directions, unit vectors within 1 % ([] for a "
                           "matrix-only material)"),
         "phi_fibres": Key("numbers", "[0.2, 0.2, 0.2]", "volume fraction of each fibre family"),
@@ -69,16 +80,6 @@ TABLES: dict[str, dict[str, Key]] = {
         "eps0": Key("numbers", "zeros", "slack Green strain of each fibre family"),
     },
 }  # fmt: skip
-
-#: The ``[protocol]`` keys each kind takes (a ramp's ``stress_kpa`` is a mistake, not an extra).
-PROTOCOL_KEYS = {
-    "creep": ("kind", "stress_kpa"),
-    "ramp": ("kind", "hold_stress_kpa", "hold_s", "rate_kpa_per_s"),
-    "measured": ("kind", "force_column"),
-    "stretch_ramp": ("kind", "stretch", "ramp_s"),
-    "stretch_cycles": ("kind", "stretch", "period_s"),
-    "measured_stretch": ("kind", "stretch_column"),
-}
 
 
 def check_experiment_document(doc: Mapping, file: str) -> None:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from bayestissue._validation import ValidationError
 from bayestissue.mechanics.tissue import PAPER_TISSUE, TissueConfig
-from bayestissue.paper import PAPER_BOUNDS
+from bayestissue.paper import KIND_BOUNDS
 
 __all__ = ["TissuePreset", "PRESETS", "preset"]
 
@@ -36,17 +36,12 @@ class TissuePreset:
     description: str
 
 
-def _table1() -> dict:
-    kinds = ("mu", "kappa", "ginf", "gamma", "beta")
-    return {k: tuple(float(x) for x in PAPER_BOUNDS[i]) for i, k in enumerate(kinds)}
-
-
 _MATRIX_ONLY = {"directions": [], "phi_fibres": [], "phi_matrix": 1.0, "bulk_kpa": 2.0e6}
 
 PRESETS = {
     p.name: p
     for p in (
-        TissuePreset("slug", PAPER_TISSUE, _table1(), "the paper's slug-foot smooth muscle"),
+        TissuePreset("slug", PAPER_TISSUE, KIND_BOUNDS, "the paper's slug-foot smooth muscle"),
         TissuePreset(
             "tendon",
             TissueConfig(directions=[[1.0, 0.0, 0.0]], phi_fibres=[0.7], phi_matrix=0.3, bulk_kpa=2.0e6),

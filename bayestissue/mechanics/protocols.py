@@ -146,7 +146,7 @@ class StretchRampProtocol:
         check_positive("protocol.stretch", self.stretch)
         check_positive("protocol.ramp_s", self.ramp_s)
 
-    def stretch_at(self, time_s: np.ndarray, length_x_mm: float) -> np.ndarray:
+    def stretch_at(self, time_s: np.ndarray) -> np.ndarray:
         t = np.asarray(time_s, dtype=float)
         return 1.0 + (self.stretch - 1.0) * np.clip(t / self.ramp_s, 0.0, 1.0)
 
@@ -168,7 +168,7 @@ class StretchCyclesProtocol:
         check_positive("protocol.stretch", self.stretch)
         check_positive("protocol.period_s", self.period_s)
 
-    def stretch_at(self, time_s: np.ndarray, length_x_mm: float) -> np.ndarray:
+    def stretch_at(self, time_s: np.ndarray) -> np.ndarray:
         phase = np.mod(np.asarray(time_s, dtype=float) / self.period_s, 1.0)
         return 1.0 + (self.stretch - 1.0) * (1.0 - np.abs(1.0 - 2.0 * phase))
 
@@ -208,7 +208,7 @@ class MeasuredStretchProtocol:
         object.__setattr__(self, "time_s", t)
         object.__setattr__(self, "stretch", lam)
 
-    def stretch_at(self, time_s: np.ndarray, length_x_mm: float) -> np.ndarray:
+    def stretch_at(self, time_s: np.ndarray) -> np.ndarray:
         t = np.asarray(time_s, dtype=float)
         return np.interp(t, np.r_[0.0, self.time_s], np.r_[1.0, self.stretch])
 

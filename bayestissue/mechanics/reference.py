@@ -51,6 +51,21 @@ def _symmetric(x) -> np.ndarray:
     return E + np.triu(E, 1).T
 
 
+def _solve_checked(residual, x0, tol, scale):
+    """``scipy.optimize.root`` of ``residual`` from ``x0``, accepted only where the residual is below 1e-8 ``scale``.
+
+    Where a fibre's tension switches on (reloading from slack) Levenberg-Marquardt can stop short of a root from the
+    last state and still report success: the residual is checked, and Powell's method from ``x0`` and
+    Levenberg-Marquardt from the reference state (0) are tried next. A trial point with det C < 0 gives NaN, which
+    fails that attempt. Returns the solution object, or None."""
+    for start, method in ((x0, "lm"), (x0, "hybr"), (0.0 * x0, "lm")):
+        with np.errstate(invalid="ignore", over="ignore"):
+            sol = root(residual, start, method=method, tol=tol)
+            if sol.success and np.max(np.abs(residual(sol.x))) <= 1e-8 * scale:
+                return sol
+    return None
+
+
 def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_x, *, tol=1e-10, stretch_control=False):
     """Integrate one uniaxial test step by step with ``scipy.optimize.root`` on the six equations
     :math:`S(E) - P_{11}/\\sqrt{C_{11}}\\, e_1 \\otimes e_1 = 0` (docs/model.md). Slack strains are zero.
@@ -89,15 +104,8 @@ def reference_simulate(params, directions, phi_f, phi_m, bulk, load, dt, length_
             S[0, 0] -= P / np.sqrt(1.0 + 2.0 * E[0, 0])
             return S[_IU][free]
 
-        # where a fibre's tension switches on (reloading from slack) the solvers can stop short from the last state:
-        # check the residual, retry with Powell's method and from the reference state
-        for x0, method in ((x[free], "lm"), (x[free], "hybr"), (0.0 * x[free], "lm")):
-            with np.errstate(invalid="ignore"):  # a trial point with det C < 0 gives NaN: that attempt fails
-                sol = root(residual, x0, method=method, tol=tol)
-                good = sol.success and np.max(np.abs(residual(sol.x))) <= 1e-8 * max(1.0, abs(P))
-            if good:
-                break
-        else:
+        sol = _solve_checked(residual, x[free], tol, max(1.0, abs(P)))
+        if sol is None:
             break
         x[free] = sol.x
         E = _symmetric(x)
@@ -180,15 +188,9 @@ def reference_complex_step(experiment, params, j: int, *, h: float = 1e-30, max_
         def real_residual(xr, residual=residual):
             return residual(xr)[0].real
 
-        # the real solve, checked, with the retries of reference_simulate (reloading from slack fibres)
-        for x0, method in ((xf.real, "lm"), (xf.real, "hybr"), (0.0 * xf.real, "lm")):
-            with np.errstate(invalid="ignore", over="ignore"):
-                real = root(real_residual, x0, method=method, tol=1e-12)
-                good = real.success and np.max(np.abs(real_residual(real.x))) <= 1e-8 * max(1.0, abs(load[n]))
-            if good:
-                break
-        else:
-            raise RuntimeError(f"complex-step reference: step {n}: {real.message}")
+        real = _solve_checked(real_residual, xf.real, 1e-12, max(1.0, abs(load[n])))
+        if real is None:
+            raise RuntimeError(f"complex-step reference: step {n}: no real solution found")
         xf = real.x + 1j * xf.imag
         jac = np.empty((m, m))
         for k in range(m):

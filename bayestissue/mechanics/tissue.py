@@ -14,9 +14,9 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive, check_unit_vector
 from bayestissue.paper import (
+    KIND_INITIAL,
     PAPER_BULK_KPA,
     PAPER_DIRECTIONS_PRINTED,
-    PAPER_PARAMETERS,
     PAPER_PHI_FIBRES,
     PAPER_PHI_MATRIX,
 )
@@ -162,8 +162,7 @@ def parse_parameters(text: str, names: tuple[str, ...], *, base: np.ndarray | No
     initial guess, the same for every fibre family) for the names not given. Unknown names raise a ValidationError
     listing the known ones."""
     if base is None:
-        initial = dict(zip(param_names(3), PAPER_PARAMETERS["initial"], strict=True))
-        base = [initial[n.rstrip("0123456789") + ("1" if n[-1].isdigit() else "")] for n in names]
+        base = [KIND_INITIAL[n.rstrip("0123456789")] for n in names]
     values = np.array(base, dtype=float)
     given = set()
     for item in filter(None, (s.strip() for s in text.split(","))):

@@ -19,7 +19,7 @@ from bayestissue._validation import ValidationError
 from bayestissue.inference import CalibrationProblem, ExperimentTerm, ParameterSet, ParameterSpec, make_noise
 from bayestissue.mechanics import ForwardModel, param_names, parse_parameters
 from bayestissue.mechanics.presets import preset
-from bayestissue.paper import PAPER_BOUNDS, PAPER_PARAMETERS, PARAM_UNITS
+from bayestissue.paper import KIND_BOUNDS, KIND_INITIAL, PAPER_PARAMETERS, PARAM_UNITS
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.forward import SpecimenForward, noise_sd, specimen_spec
 
@@ -45,21 +45,15 @@ def paper_parameter_set(
 
     References
     ----------
-    Paper Section 3.2 and Table 1 (:data:`bayestissue.paper.PAPER_BOUNDS`, ``PAPER_PARAMETERS["initial"]``).
+    Paper Section 3.2 and Table 1 (:data:`bayestissue.paper.KIND_BOUNDS`, :data:`~bayestissue.paper.KIND_INITIAL`).
     """
     if prior not in ("default", "uniform"):
         raise ValidationError("prior", prior, "'default' or 'uniform'")
-    names = param_names(n_fibres)
-    # Table 1's box and initial guess of each kind (the same for every fibre family): mu, kappa, ginf, gamma, beta
-    kinds = {k: i for i, k in enumerate(("mu", "kappa", "ginf", "gamma", "beta"))}
-    bounds = np.asarray(PAPER_BOUNDS, dtype=float)
-    init = np.asarray(PAPER_PARAMETERS["initial"], dtype=float)
     specs = []
-    for name in names:
+    for name in param_names(n_fibres):
         prefix = name.rstrip("0123456789")
-        i = kinds[prefix]
         p = "uniform" if (prior == "uniform" or prefix == "gamma") else "loguniform"
-        lo, hi, value = bounds[i, 0], bounds[i, 1], init[i]
+        (lo, hi), value = KIND_BOUNDS[prefix], KIND_INITIAL[prefix]
         if boxes and prefix in boxes and tuple(boxes[prefix]) != (lo, hi):
             lo, hi = (float(x) for x in boxes[prefix])
             value = 0.5 * (lo + hi) if prefix == "gamma" else float(np.sqrt(lo * hi))
@@ -208,7 +202,6 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
             column = {"displacement": "displacement_mm", "force": "force_mN or nominal_stress_kpa"}[quantity]
             raise ValidationError(f"experiment {e.name}", f"no {column} column", f"{quantity} data to fit")
         forward = _forward(e, config)
-        exact = isinstance(forward, ForwardModel)
         terms.append(
             ExperimentTerm(
                 e.name,
@@ -218,7 +211,7 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
                 _noise(e, config),
                 {"synthetic": bool(e.synthetic), "source": str(e.source or ""), "observable": f"{quantity} ({unit})"},
                 unit=unit,
-                sensitivities=forward.sensitivities if exact else None,
+                sensitivities=forward.sensitivities if isinstance(forward, ForwardModel) else None,
             )
         )
     geometry = creep_geometry(experiments, material.tied) if config.coordinates == "creep" else None
