@@ -15,7 +15,7 @@ import sys
 
 from bayestissue import __version__
 
-__all__ = ["main", "build_parser", "plain"]
+__all__ = ["main", "build_parser", "plain", "progress_bar"]
 
 #: Sub-command modules, in the order ``--help`` lists them.
 _COMMANDS = ("simulate", "fit", "importer", "stereology", "micrographs")
@@ -30,6 +30,13 @@ class _Parser(argparse.ArgumentParser):
 def plain(text: str) -> str:
     """A docstring's text for --help: without reStructuredText's double backquotes."""
     return text.replace("``", "")
+
+
+def progress_bar(args, **kwargs):
+    """A tqdm bar on stderr, off under the command's ``--quiet`` or the global ``bayestissue --quiet``."""
+    from tqdm import tqdm
+
+    return tqdm(file=sys.stderr, disable=bool(getattr(args, "quiet", False)), **kwargs)
 
 
 def build_parser() -> argparse.ArgumentParser:

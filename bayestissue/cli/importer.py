@@ -64,7 +64,7 @@ def _positive(name: str, value):
 
 def run(args) -> int:
     from bayestissue._validation import ValidationError
-    from bayestissue.io.machine_export import prepare, read_machine_export
+    from bayestissue.io.machine_export import block_section, prepare, read_machine_export
     from bayestissue.io.tables import write_table
     from bayestissue.mechanics import load_experiment
 
@@ -79,11 +79,10 @@ def run(args) -> int:
     gauge = args.gauge_mm or export.gauge_mm
     if gauge is None:
         raise ValidationError(f"{src.name} gauge length", "missing", "a 'Gauge length' line or --gauge-mm")
-    if args.diameter_mm:
-        side = float(np.sqrt(np.pi * args.diameter_mm**2 / 4.0))
-        section, note = (side, side), f"circular, diameter {args.diameter_mm:g} mm: a square of the same area"
-    elif args.width_mm:
-        section, note = (args.width_mm, args.thickness_mm), f"width {args.width_mm:g} x thickness {args.thickness_mm:g}"
+    if args.diameter_mm or args.width_mm:
+        section, note = block_section(
+            diameter_mm=args.diameter_mm, width_mm=args.width_mm, thickness_mm=args.thickness_mm
+        )
     elif export.section_mm:
         section, note = export.section_mm, export.section_note
     else:

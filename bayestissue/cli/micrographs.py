@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from bayestissue._validation import ValidationError
-from bayestissue.cli import plain
+from bayestissue.cli import plain, progress_bar
 from bayestissue.io.micrographs import read_micrographs, write_micrographs, write_truth
 from bayestissue.io.stereology_files import write_line_system
 from bayestissue.io.tables import write_table
@@ -162,8 +162,6 @@ def _pixel_size(source, given: float | None) -> float:
 
 
 def _run_analyse(args) -> int:
-    from tqdm import tqdm
-
     from bayestissue.plotting.micrographs import plot_overlay
 
     t0 = time.perf_counter()
@@ -172,7 +170,7 @@ def _run_analyse(args) -> int:
     imgs = check_rgb_stack(images)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with tqdm(total=len(imgs) + 2, file=sys.stderr, disable=args.quiet, desc="micrographs", unit="step") as bar:
+    with progress_bar(args, total=len(imgs) + 2, desc="micrographs", unit="step") as bar:
         res = analyse_micrographs(
             imgs,
             pixel_um=args.pixel_size_um,

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 
 import numpy as np
 
@@ -173,10 +172,9 @@ def _replicates(args) -> int:
 
     pc = PointCounts.from_file(args.counts)
     ls = LineSystem.from_file(args.lines)
-    from tqdm import tqdm
+    from bayestissue.cli import progress_bar
 
-    with tqdm(total=args.n_boot, unit="replicate", desc="direction bootstrap", file=sys.stderr,
-              disable=getattr(args, "quiet", False)) as bar:  # fmt: skip
+    with progress_bar(args, total=args.n_boot, unit="replicate", desc="direction bootstrap") as bar:
         cols, info = stereology_replicates(
             pc,
             ls,

@@ -32,7 +32,7 @@ import numpy as np
 from bayestissue._validation import ValidationError
 from bayestissue.io.tables import _decode
 
-__all__ = ["MachineExport", "read_machine_export", "prepare", "UNITS"]
+__all__ = ["MachineExport", "read_machine_export", "prepare", "block_section", "UNITS"]
 
 #: unit -> (quantity, factor to s / mm / mN)
 UNITS = {
@@ -189,17 +189,25 @@ def read_machine_export(path: str | Path) -> MachineExport:
         out.gauge_mm = _length("gauge length", v, u, f"{path.name} line {line}")
     if "diameter_mm" in meta:
         v, u, line = meta["diameter_mm"]
-        d = _length("diameter", v, u, f"{path.name} line {line}")
-        side = math.sqrt(math.pi * d * d / 4.0)
-        out.section_mm = (side, side)
-        out.section_note = f"circular, diameter {d:g} mm: a square of the same area, side {side:.6g} mm"
+        out.section_mm, out.section_note = block_section(
+            diameter_mm=_length("diameter", v, u, f"{path.name} line {line}")
+        )
     elif "width_mm" in meta and "thickness_mm" in meta:
         (vw, uw, lw), (vt, ut, lt) = meta["width_mm"], meta["thickness_mm"]
         w = _length("width", vw, uw, f"{path.name} line {lw}")
-        th = _length("thickness", vt, ut, f"{path.name} line {lt}")
-        out.section_mm = (w, th)
-        out.section_note = f"width {w:g} mm x thickness {th:g} mm"
+        out.section_mm, out.section_note = block_section(
+            width_mm=w, thickness_mm=_length("thickness", vt, ut, f"{path.name} line {lt}")
+        )
     return out
+
+
+def block_section(*, diameter_mm=None, width_mm=None, thickness_mm=None) -> tuple[tuple[float, float], str]:
+    r"""The model block's cross-section ``(L_y, L_z)`` and a line saying how it was made: a round specimen as the
+    square of the same area (side :math:`\sqrt{\pi d^2 / 4}`), a rectangular one as it is."""
+    if diameter_mm is not None:
+        side = math.sqrt(math.pi * diameter_mm * diameter_mm / 4.0)
+        return (side, side), f"circular, diameter {diameter_mm:g} mm: a square of the same area, side {side:.6g} mm"
+    return (width_mm, thickness_mm), f"width {width_mm:g} mm x thickness {thickness_mm:g} mm"
 
 
 def prepare(export: MachineExport, *, until_s=None, drop: float | None = 0.5, step_s=None) -> tuple[dict, str]:
