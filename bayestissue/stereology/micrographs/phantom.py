@@ -447,12 +447,7 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
                     f"reached {n_smc / (np.prod(shape) - n_cav):.3f} of the tissue after "
                     f"{attempts} candidates; raise max_overlap or lower gap_um",
                 )
-            comp = rng.choice(len(weights), size=batch, p=weights)
-            dirs = np.empty((batch, 3))
-            for k in range(len(weights)):
-                sel = comp == k
-                if sel.any():
-                    dirs[sel] = sample_watson_axes(axes[k], o.kappa, int(sel.sum()), rng=rng)
+            dirs, comp = _mixture_axes(batch, axes, weights, o.kappa, rng)
             centres = rng.uniform(size=(batch, 3)) * (upper + 2 * a) - a
             for j in range(batch):
                 attempts += 1
@@ -496,6 +491,18 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
     return _phantom(o, cavity, cell_ids, segments, directions, comps, seed)
 
 
+def _mixture_axes(n, axes, weights, kappa, rng) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` axes from the Watson mixture: the component of each (``weights``), then its Watson draw about
+    ``axes[k]`` (:func:`sample_watson_axes`). Returns (directions (n, 3), components (n,))."""
+    comp = rng.choice(len(weights), size=n, p=weights)
+    dirs = np.empty((n, 3))
+    for k in range(len(weights)):
+        sel = comp == k
+        if sel.any():
+            dirs[sel] = sample_watson_axes(axes[k], kappa, int(sel.sum()), rng=rng)
+    return dirs, comp
+
+
 def _phantom(o, cavity, cell_ids, segments, directions, comps, seed) -> TissuePhantom:
     components = np.full(cavity.shape, ECM, dtype=np.uint8)
     components[cell_ids > 0] = SMC
@@ -524,13 +531,7 @@ def _tessellated_cells(o, cavity, axes, weights, rng):
 
     def draw(rng):
         if pool["comp"].size == 0:
-            comp = rng.choice(len(weights), size=512, p=weights)
-            dirs = np.empty((512, 3))
-            for k in range(len(weights)):
-                sel = comp == k
-                if sel.any():
-                    dirs[sel] = sample_watson_axes(axes[k], o.kappa, int(sel.sum()), rng=rng)
-            pool["dirs"], pool["comp"] = dirs, comp
+            pool["dirs"], pool["comp"] = _mixture_axes(512, axes, weights, o.kappa, rng)
         d, c = pool["dirs"][0], int(pool["comp"][0])
         pool["dirs"], pool["comp"] = pool["dirs"][1:], pool["comp"][1:]
         return d * (-1.0 if d[2] < 0 else 1.0), c
@@ -550,12 +551,12 @@ def _tessellated_cells(o, cavity, axes, weights, rng):
     placed = None
     for _ in range(12):
         placed = place_axes(n, draw, upper, a, o.min_axis_gap_um, in_cavity, o.max_in_cavity, rng, start=placed)
-        kept = [k for k in range(len(placed[0])) if clip_segment_to_box(placed[0][k], placed[0][k] + placed[1][k],
-                                                                        upper) is not None]  # fmt: skip
+        clipped = [clip_segment_to_box(p, p + d, upper) for p, d in zip(placed[0], placed[1], strict=True)]
+        kept = [k for k, seg in enumerate(clipped) if seg is not None]
         starts, vectors, comps = placed[0][kept], placed[1][kept], placed[2][kept]
         ids, _, reached = tessellate(starts, vectors, b, tissue, v, o.smc_fraction)
         if ids is not None:
-            segments = [clip_segment_to_box(p, p + d, upper) for p, d in zip(starts, vectors, strict=True)]
+            segments = [clipped[k] for k in kept]
             directions = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
             return _renumber(ids, segments, directions, comps)
         n = max(4, int(0.25 * len(placed[0])))
