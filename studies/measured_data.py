@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.mechanics import plot_stress_stretch  # noqa: E402
 from bayestissue.workflows import config_from_mapping, run_calibration  # noqa: E402
-from bayestissue.workflows.measured import CASES, incompressible_fit, trimmed  # noqa: E402
+from bayestissue.workflows.measured import CASES, incompressible_fit, incompressible_stress, trimmed  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 20261125
@@ -54,8 +54,8 @@ SETTINGS["quick"]["nested"] = {"n_live": 200, "n_eff": 200, "n_networks": 1, "ma
 SETTINGS["default"]["nested"] = {"n_networks": 1}
 
 
-def _interval(draws) -> str:
-    q = np.quantile(draws, [0.5, 0.05, 0.95])
+def _interval(q) -> str:
+    """Median [5 %, 95 %] from the three quantiles."""
     return f"{q[0]:.4g} [{q[1]:.4g}, {q[2]:.4g}]"
 
 
@@ -65,9 +65,8 @@ def run_case(case, data_dir: Path, key: str, out: Path) -> tuple[str, dict]:
     lam, stress = exp.protocol.stretch, exp.observed
     settings = SETTINGS[key]
     extra = {k: settings[k] for k in ("n_predictive", "nested") if k in settings}
-    engine = "nested" if case.name.startswith("brain") else "emcee"
     config = config_from_mapping(
-        None, seed=SEED, n_starts=settings["n_starts"], sampler=settings["sampler"], engine=engine,
+        None, seed=SEED, n_starts=settings["n_starts"], sampler=settings["sampler"], engine=case.engine,
         **extra,
     )  # fmt: skip
     t0 = time.perf_counter()
@@ -87,8 +86,9 @@ def run_case(case, data_dir: Path, key: str, out: Path) -> tuple[str, dict]:
         model_draws=model,
         fits={
             f"least squares (ours): mu {best.x[0]:.4g}, kappa {best.x[1]:.4g} kPa": ls_curve,
-            f"closed form, incompressible: mu {mu_cf:.4g}, kappa {kappa_cf:.4g} kPa": (lam - lam**-2)
-            * (mu_cf + kappa_cf / lam),
+            f"closed form, incompressible: mu {mu_cf:.4g}, kappa {kappa_cf:.4g} kPa": incompressible_stress(
+                lam, mu_cf, kappa_cf
+            ),
         },
         title=f"{case.material}, stretch <= {lam.max():.3g}\nMooney-Rivlin matrix: "
         f"{'CONVERGED' if outcome.report.converged else 'NOT CONVERGED'}",
@@ -97,13 +97,17 @@ def run_case(case, data_dir: Path, key: str, out: Path) -> tuple[str, dict]:
     plt.close(fig)
     rms_ls = float(np.sqrt(np.mean((ls_curve - stress) ** 2)))
     sd = post[:, names.index(f"sigma_{exp.name}")]
+    q = {
+        k: np.quantile(v, [0.5, 0.05, 0.95]).tolist()
+        for k, v in (("mu", post[:, 0]), ("kappa", post[:, 1]), ("sd", sd))
+    }
     verdict = outcome.report.verdict()
     print(f"  {case.name}: {verdict} ({seconds:.1f} s)", flush=True)
     active = ", ".join(best.active_names()) or "none"
     row = (
         f"| {case.name} | {lam.min():.3g}-{lam.max():.3g} ({lam.size}) | {mu_cf:.4g} / {kappa_cf:.4g} "
         f"(rms {rms_cf:.3g}) | {best.x[0]:.4g} / {best.x[1]:.4g} (rms {rms_ls:.3g}; bounds: {active})"
-        f" | {_interval(post[:, 0])} | {_interval(post[:, 1])} | {_interval(sd)} | {verdict} | {seconds:.0f} s |"
+        f" | {_interval(q['mu'])} | {_interval(q['kappa'])} | {_interval(q['sd'])} | {verdict} | {seconds:.0f} s |"
     )
     numbers = {
         "name": case.name,
@@ -114,8 +118,7 @@ def run_case(case, data_dir: Path, key: str, out: Path) -> tuple[str, dict]:
         "closed_form": {"mu": mu_cf, "kappa": kappa_cf, "rms": rms_cf},
         "least_squares": {"mu": float(best.x[0]), "kappa": float(best.x[1]), "rms": rms_ls,
                           "active": list(best.active_names())},
-        "posterior": {k: np.quantile(v, [0.5, 0.05, 0.95]).tolist() for k, v in
-                      (("mu", post[:, 0]), ("kappa", post[:, 1]), ("sd", sd))},
+        "posterior": q,
         "converged": bool(outcome.report.converged),
         "verdict": verdict,
         "seconds": seconds,
