@@ -54,6 +54,7 @@ import numpy as np
 from bayestissue._validation import ValidationError, check_increasing, check_positive
 from bayestissue.io.tables import read_table
 from bayestissue.io.toml_files import read_toml
+from bayestissue.mechanics.branches import with_second_branch
 from bayestissue.mechanics.experiment_schema import check_experiment_document
 from bayestissue.mechanics.presets import preset
 from bayestissue.mechanics.protocols import protocol_from_mapping
@@ -271,6 +272,7 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
             eps0=t.get("eps0"),
             preset=base.name,
         )
+        tissue = with_second_branch(tissue, t.get("second_branch", []))
     noise = meta.get("noise_sd_mm")
     if noise is not None:
         try:

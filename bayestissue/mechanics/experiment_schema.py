@@ -78,6 +78,9 @@ TABLES: dict[str, dict[str, Key]] = {
         "phi_matrix": Key("float", "0.4", "matrix volume fraction (with the fibres': 1)", low=0.0),
         "bulk_kpa": Key("float", "1000", "bulk modulus of the volumetric penalty (kPa)", **_POSITIVE),
         "eps0": Key("numbers", "zeros", "slack Green strain of each fibre family"),
+        "second_branch": Key("numbers", "[]", "families (1-based) given a second Kelvin branch: a two-time-constant "
+                             "fibre (bayestissue/mechanics/branches.py); family n_f + j is the j-th listed family's "
+                             "second branch"),
     },
 }  # fmt: skip
 

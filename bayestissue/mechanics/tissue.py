@@ -58,6 +58,10 @@ class TissueConfig:
     preset : str
         The preset the composition started from (:mod:`bayestissue.mechanics.presets`); it names the default
         parameter boxes of a calibration.
+    second_branch : tuple of int
+        Families (1-based) given a second Kelvin branch by
+        :func:`~bayestissue.mechanics.branches.with_second_branch`; their second branches are the last
+        ``len(second_branch)`` families (provenance; the directions and fractions already include them).
     """
 
     directions: np.ndarray
@@ -66,6 +70,7 @@ class TissueConfig:
     bulk_kpa: float = 1000.0
     eps0: np.ndarray | None = field(default=None)
     preset: str = "slug"
+    second_branch: tuple = ()
 
     def __post_init__(self):
         d = np.asarray(self.directions, dtype=float)
@@ -98,6 +103,7 @@ class TissueConfig:
         for name, val in (("directions", d), ("phi_fibres", phi), ("eps0", eps0)):
             val.setflags(write=False)
             object.__setattr__(self, name, val)
+        object.__setattr__(self, "second_branch", tuple(int(k) for k in self.second_branch))
         object.__setattr__(self, "phi_matrix", pm)
         object.__setattr__(self, "bulk_kpa", float(self.bulk_kpa))
 
