@@ -133,7 +133,9 @@ def main(argv=None) -> int:
         )
         if outcome.report is not None:
             rep = outcome.report
-            verdicts.append(f"{name}: {rep.verdict()}")
+            verdicts.append(
+                f"{name}: {rep.verdict()}; posterior predictive check: {outcome.table['meta']['fit_check']}"
+            )
             print(
                 f"{name}: sampling {rep.time_s:.1f} s, min bulk ESS {rep.ess_bulk.min():.0f}, "
                 f"{rep.ess_per_second():.2f} ESS/s, max R-hat {rep.rhat.max():.3f}, "

@@ -32,6 +32,7 @@ STAGES = (
     ("calibration", "calibrate.py"),
     ("identifiability", "identifiability.py"),
     ("T1 vs T2", "t1_vs_t2.py"),
+    ("controls", "controls.py"),
     ("measured data", "measured_data.py"),
     ("report", "report.py"),
 )

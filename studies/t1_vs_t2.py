@@ -30,6 +30,7 @@ from bayestissue.identifiability import (  # noqa: E402
     tension,
 )
 from bayestissue.io.figures import save_figure  # noqa: E402
+from bayestissue.paper import PAPER_BOUNDS  # noqa: E402
 from bayestissue.parallel import fan_out  # noqa: E402
 from bayestissue.plotting.identifiability import (  # noqa: E402
     plot_corner_overlay,
@@ -123,14 +124,17 @@ def main(argv=None) -> int:
         )
     fig.tight_layout()
     save_figure(fig, out / "t1_vs_t2_cross_prediction.png")
-    marks = {}
-    for p in ("beta2", "beta3"):
-        row = []
-        for f in rates["factors"]:
-            pr = rates["profiles"].get(f)
-            row.append(-1 if pr is None else int(pr[p] == "identifiable"))
-        marks[p] = np.array(row)
-    save_figure(plot_rate_study(rates["factors"], rates["se_log"], marks=marks), out / "t1_vs_t2_rates.png")
+    names8 = dsc.MIRROR_NAMES
+    save_figure(
+        plot_rate_study(
+            rates["factors"],
+            rates["se_log"],
+            rates["profiles"],
+            {p: float(rates["truth"][names8.index(p)]) for p in dsc.VISC},
+            {p: tuple(PAPER_BOUNDS[names8.index(p)]) for p in dsc.VISC},
+        ),
+        out / "t1_vs_t2_rates.png",
+    )
     if cut:
         save_figure(
             plot_widths(

@@ -183,6 +183,7 @@ def _report(outcome, config, names, out, no_figures) -> None:
     if outcome.report is not None:
         rep = outcome.report
         print(rep.verdict())
+        print("posterior predictive check:", outcome.table["meta"]["fit_check"])
         if config.engine == "nested":
             print(f"log evidence: {outcome.sample.log_z:.3f} +- {outcome.sample.log_z_err:.3f}")
         print(

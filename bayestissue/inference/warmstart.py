@@ -128,10 +128,10 @@ def wald_interval(x_hat, sd, z: float, *, positive) -> tuple[np.ndarray, np.ndar
     :math:`\hat\alpha_i \exp(\pm z\,\mathrm{sd}_i/\hat\alpha_i)`, which stays positive (a linear interval gave
     mu in [-348, 348] kPa for an estimate at the lower bound 0.001)."""
     x_hat, sd = np.asarray(x_hat, dtype=float), np.asarray(sd, dtype=float)
-    with np.errstate(over="ignore"):
+    with np.errstate(over="ignore"):  # an unidentified parameter: the interval runs to 0 and inf
         factor = np.exp(z * sd / np.abs(x_hat))
-    lower = np.where(positive, x_hat / factor, x_hat - z * sd)
-    upper = np.where(positive, x_hat * factor, x_hat + z * sd)
+        lower = np.where(positive, x_hat / factor, x_hat - z * sd)
+        upper = np.where(positive, x_hat * factor, x_hat + z * sd)
     return lower, upper
 
 

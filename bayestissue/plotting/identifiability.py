@@ -217,34 +217,59 @@ def plot_cross_prediction(time_s, y_obs, band, median, *, title="", coverage=Non
     return ax.figure
 
 
-def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], *, ax=None, marks=None):
-    """Gauss-Newton sd of log-parameters against the loading-rate factor (log-log), one line per parameter.
+def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], profiles: Mapping, truth: Mapping[str, float],
+                    bounds: Mapping[str, tuple]):  # fmt: skip
+    """What the cause-1 verdict rests on: for each viscosity parameter, the 95 % profile-likelihood interval at
+    every profiled loading rate (bar; an open side runs to the box bound, drawn with an arrow), the true value, and
+    the linearised (Gauss-Newton) 95 % interval at every rate for comparison (grey band, clipped to the box).
 
-    ``marks`` optionally maps a parameter to an int per rate: 1 profile closed on both sides (filled
-    marker), 0 profile open (empty marker), -1 not profiled (small dot).
-    """
-    if ax is None:
-        _, ax = plt.subplots(figsize=(6.5, 4.4))
+    ``profiles[f][name]`` a classification, ``profiles[f]["ci_" + name]`` (lower, upper) with None or NaN for an
+    open side;
+    ``truth[name]``, ``bounds[name]`` = (lower, upper)."""
+    from bayestissue.plotting.style import FONT, tidy_axes
+
+    names = list(se_log)
     f = np.asarray(rate_factors, float)
-    for k, (name, se) in enumerate(se_log.items()):
-        se = np.minimum(np.asarray(se, float), 1e3)
-        ax.loglog(f, se, "-", color=f"C{k}", label=name)
-        m = np.asarray(marks.get(name, np.full(f.size, -1))) if marks else np.full(f.size, -1)
-        ax.loglog(f[m == 1], se[m == 1], "o", ms=7, color=f"C{k}")
-        ax.loglog(f[m == 0], se[m == 0], "o", ms=7, mfc="none", color=f"C{k}")
-        ax.loglog(f[m == -1], se[m == -1], ".", ms=4, color=f"C{k}")
-    ax.axhline(1.0, color="k", lw=0.8, ls="--")
-    ax.axvline(1.0, color="grey", lw=0.8, ls=":")
-    ax.set_xlabel("ramp rate / T2 rate (3.24 kPa/min)")
-    ax.set_ylabel("sd of log-parameter (Gauss-Newton)")
-    ax.set_title(
-        "Designed T2-like ramps, data simulated from the T1 posterior\n"
-        "profiled rates: filled = closed on both sides, empty = open",
-        fontsize=9,
-    )
-    ax.legend(fontsize=7)
-    ax.figure.tight_layout()
-    return ax.figure
+    fig, axes = plt.subplots(1, len(names), figsize=(6.0 * len(names), 4.6), squeeze=False)
+    for ax, name in zip(axes[0], names, strict=True):
+        lo_b, hi_b = bounds[name]
+        t = truth[name]
+        log = name.startswith("beta")
+        se = np.asarray(se_log[name], float)
+        with np.errstate(over="ignore"):
+            band = (t * np.exp(-1.96 * se), t * np.exp(1.96 * se))
+        ax.fill_between(f, np.clip(band[0], lo_b, hi_b), np.clip(band[1], lo_b, hi_b), color="0.85",
+                        label="Gauss-Newton 95 % (linearised)")  # fmt: skip
+        ax.axhline(t, color="tab:green", ls="--", lw=1.5, label=f"true {name} = {t:.3g}")
+        first = True
+        for fk, pr in profiles.items():
+            ci = pr.get(f"ci_{name}")
+            if ci is None:
+                continue
+            open_lo, open_hi = (c is None or not np.isfinite(c) for c in ci)  # None (JSON) or NaN: open side
+            lo, hi = (lo_b if open_lo else ci[0]), (hi_b if open_hi else ci[1])
+            closed = pr.get(name) == "identifiable"
+            ax.plot([float(fk)] * 2, [lo, hi], "-", color="tab:blue" if closed else "tab:orange", lw=4, alpha=0.8,
+                    solid_capstyle="butt", label=None)  # fmt: skip
+            for end, open_side, marker in ((lo, open_lo, "v"), (hi, open_hi, "^")):
+                if open_side:
+                    ax.plot(float(fk), end, marker, color="tab:orange", ms=9)
+            if first:
+                ax.plot([], [], "-", color="tab:blue", lw=4, label="profile 95 % interval (closed)")
+                ax.plot([], [], "-", color="tab:orange", lw=4, label="profile open (arrow: runs to the bound)")
+                first = False
+        ax.set_xscale("log")
+        if log:
+            ax.set_yscale("log")
+        ax.set_ylim(lo_b, hi_b)
+        ax.axvline(1.0, color="grey", lw=0.8, ls=":")
+        ax.set_xlabel("ramp rate / T2 rate (1 = 3.24 kPa/min)", fontsize=FONT["label"])
+        ax.set_ylabel(f"{name} ({'1/s' if log else '1'})", fontsize=FONT["label"])
+        ax.set_title(f"{name}: what each designed ramp pins down", fontsize=FONT["title"], loc="left")
+        ax.legend(fontsize=FONT["legend"] - 1, loc="lower left" if not log else "upper left", framealpha=0.9)
+    tidy_axes(fig)
+    fig.tight_layout()
+    return fig
 
 
 def plot_widths(widths: Mapping[str, np.ndarray], names: Sequence[str], *, ax=None):

@@ -39,6 +39,7 @@ from bayestissue.inference import (
     sample_posterior,
 )
 from bayestissue.inference.coordinates import adapt_coordinates
+from bayestissue.inference.fit_check import fit_check, fit_check_text
 from bayestissue.inference.posterior import to_inference_data
 from bayestissue.inference.sampling.nested import peak_log_likelihood
 from bayestissue.inference.summary import summary_table, table_markdown
@@ -60,6 +61,7 @@ class CalibrationOutcome:
     sample: PosteriorSample | NestedSample | None = None
     report: ConvergenceReport | NestedReport | None = None
     idata: object = None
+    fit_check: dict | None = None
     table: dict | None = None
     references: dict = field(default_factory=dict)
     times_s: dict = field(default_factory=dict)
@@ -175,8 +177,11 @@ def run_calibration(
         rhat=dict(zip(report.names, report.rhat, strict=True)),
         rng=rng,
     )
+    outcome.fit_check = fit_check(idata)
+    idata.posterior.attrs["fit_check"] = fit_check_text(outcome.fit_check)
     outcome.sample, outcome.report, outcome.idata = sample, report, idata
     outcome.table = summary_table(problem, best, sample, report, references=refs)
+    outcome.table["meta"]["fit_check"] = idata.posterior.attrs["fit_check"]
     _write(outcome, out_dir)
     return outcome
 

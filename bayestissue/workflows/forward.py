@@ -3,11 +3,12 @@ r"""Forward models of experiments as the inference layer sees them: callables ``
 A plain experiment's forward is :class:`bayestissue.mechanics.ForwardModel` itself (fixed inputs computed once).
 This module adds what the studies need beyond the material parameters:
 
-* :class:`SpecimenForward` -- one experiment under a *specimen-level* parameter appended to the 11 material
-  parameters: ``"scale"`` multiplies every modulus (mu, kappa, ginf_k) of that specimen by :math:`s` (a stiffer or
-  softer piece of the sole, cause 3 of the paper), ``"angle"`` sets the in-plane half-angle :math:`\alpha`
-  (degrees) of fibre families 2 and 3, :math:`v_{2,3} = (\cos\alpha, \pm\sin\alpha, 0)` (the paper's directions
-  have :math:`\alpha = 20.05^\circ`; cause 2).
+* :class:`SpecimenForward` -- one experiment under *specimen-level* parameters appended to the material
+  parameters (one kind, or ``"angle+scale"`` for both): ``"scale"`` multiplies every modulus (mu, kappa, ginf_k)
+  of that specimen by :math:`s` (a stiffer or softer piece of the sole, cause 3 of the paper), ``"angle"`` sets
+  the in-plane half-angle :math:`\alpha` (degrees) of fibre families 2 and 3,
+  :math:`v_{2,3} = (\cos\alpha, \pm\sin\alpha, 0)` (the paper's directions have :math:`\alpha = 20.05^\circ`;
+  cause 2).
 * :class:`ExperimentResiduals` -- stacked scaled residuals :math:`(y_{obs} - u(\theta))/\sigma` of one or several
   experiments, for profile likelihoods and scaled sensitivities.
 """
@@ -20,10 +21,19 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference import ParameterSpec
-from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig, simulate
-from bayestissue.paper import MODULI, PAPER_HALF_ANGLE_DEG
+from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig
+from bayestissue.paper import PAPER_HALF_ANGLE_DEG
 
-__all__ = ["SpecimenForward", "ExperimentResiduals", "specimen_spec", "tissue_with_half_angle", "noise_sd"]
+__all__ = [
+    "SpecimenForward",
+    "ExperimentResiduals",
+    "MirrorResiduals",
+    "SPECIMEN_KINDS",
+    "specimen_kinds",
+    "specimen_spec",
+    "tissue_with_half_angle",
+    "noise_sd",
+]
 
 
 def noise_sd(experiment: Experiment, default: float | None = None) -> float:
@@ -40,14 +50,29 @@ def noise_sd(experiment: Experiment, default: float | None = None) -> float:
 
 
 def tissue_with_half_angle(tissue: TissueConfig, alpha_deg: float) -> TissueConfig:
-    """``tissue`` with fibre families 2 and 3 at :math:`(\\cos\\alpha, \\pm\\sin\\alpha, 0)`."""
+    """``tissue`` with fibre families 2 and 3 (and their second branches, if any) at
+    :math:`(\\cos\\alpha, \\pm\\sin\\alpha, 0)`."""
     a = np.radians(float(alpha_deg))
     d = np.array(tissue.directions, dtype=float)
-    if d.shape[0] != 3:
+    if d.shape[0] - len(tissue.second_branch) != 3:
         raise ValidationError("tissue.directions", d.shape, "three fibre families")
     d[1] = (np.cos(a), np.sin(a), 0.0)
     d[2] = (np.cos(a), -np.sin(a), 0.0)
+    for j, k in enumerate(tissue.second_branch):
+        d[3 + j] = d[k - 1]
     return replace(tissue, directions=d)
+
+
+#: Kinds of specimen-level parameter.
+SPECIMEN_KINDS = ("scale", "angle")
+
+
+def specimen_kinds(kind: str | None) -> tuple[str, ...]:
+    """``"scale"``, ``"angle"`` or several joined by ``+`` (e.g. ``"angle+scale"``: both, in that order)."""
+    kinds = tuple(kind.split("+")) if kind else ()
+    if any(k not in SPECIMEN_KINDS for k in kinds) or len(set(kinds)) != len(kinds):
+        raise ValidationError("specimen parameter kind", kind, "'scale', 'angle' or 'angle+scale'")
+    return kinds
 
 
 def specimen_spec(kind: str) -> ParameterSpec:
@@ -61,28 +86,32 @@ def specimen_spec(kind: str) -> ParameterSpec:
 
 
 class SpecimenForward:
-    """Forward model of ``experiment`` taking ``(n_sets, 11 + k)``: the material parameters, then extra
-    columns; ``kind`` None ignores the extras, ``"scale"`` / ``"angle"`` use column ``column``."""
+    """Forward model of ``experiment`` taking ``(n_sets, n_material + k)``: the material parameters of its tissue
+    (:attr:`TissueConfig.param_names`), then ``k`` extra columns; ``kind`` None ignores the extras, otherwise
+    :func:`specimen_kinds` names the extra columns in order (``"scale"`` multiplies every modulus mu, kappa,
+    ginf_k; ``"angle"`` sets the family 2/3 half-angle)."""
 
-    def __init__(self, experiment: Experiment, kind: str | None = None, column: int = 11):
-        if kind not in (None, "scale", "angle"):
-            raise ValidationError("kind", kind, "None, 'scale' or 'angle'")
-        self.experiment, self.kind, self.column = experiment, kind, int(column)
+    def __init__(self, experiment: Experiment, kind: str | None = None):
+        self.experiment, self.kinds = experiment, specimen_kinds(kind)
         self.model = ForwardModel(experiment)
+        names = experiment.tissue.param_names
+        self.n_material = len(names)
+        self.moduli = [i for i, n in enumerate(names) if n.rstrip("0123456789") in ("mu", "kappa", "ginf")]
 
     def __call__(self, params) -> np.ndarray:
         p = np.atleast_2d(np.asarray(params, dtype=float))
-        mat = p[:, :11].copy()
-        if self.kind is None:
-            return self.model(mat)
-        extra = p[:, self.column]
-        if self.kind == "scale":
-            mat[:, list(MODULI)] *= extra[:, None]
+        mat = p[:, : self.n_material].copy()
+        extra = dict(zip(self.kinds, p[:, self.n_material : self.n_material + len(self.kinds)].T, strict=True))
+        if "scale" in extra:
+            mat[:, self.moduli] *= extra["scale"][:, None]
+        if "angle" not in extra:
             return self.model(mat)
         out = np.empty((p.shape[0], self.experiment.time_s.size))
-        for i in range(p.shape[0]):
-            tis = tissue_with_half_angle(self.experiment.tissue, extra[i])
-            out[i] = simulate(replace(self.experiment, tissue=tis), mat[i])
+        angles = extra["angle"]
+        for a in np.unique(angles):  # one batched solve per distinct angle (a difference Jacobian has two)
+            rows = angles == a
+            tis = tissue_with_half_angle(self.experiment.tissue, a)
+            out[rows] = ForwardModel(replace(self.experiment, tissue=tis))(mat[rows])
         return out
 
 
@@ -109,3 +138,22 @@ class ExperimentResiduals:
 
     def __call__(self, theta) -> np.ndarray:
         return (self.observed - self.predict(theta)) / self.sd
+
+
+class MirrorResiduals:
+    """:class:`ExperimentResiduals` as a function of the mirror model's 8 parameters (``mu, kappa``, family 1,
+    family 2; family 3 takes family 2's law, :data:`bayestissue.paper.MIRROR_TIES`): ``r(theta8)``."""
+
+    def __init__(self, residuals: ExperimentResiduals):
+        self.residuals = residuals
+
+    @staticmethod
+    def expand(theta) -> np.ndarray:
+        t = np.asarray(theta, dtype=float)
+        return np.concatenate([t, t[..., 5:8]], axis=-1)
+
+    def predict(self, theta) -> np.ndarray:
+        return self.residuals.predict(self.expand(theta))
+
+    def __call__(self, theta) -> np.ndarray:
+        return self.residuals(self.expand(theta))

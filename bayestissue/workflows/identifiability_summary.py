@@ -58,6 +58,7 @@ def identifiability_summary(args, cal: dict, res: dict, pset: dict, loc: dict, p
             "n_dropped": c.n_dropped,
             "time_mcmc_s": c.time_mcmc_s,
             "sampler": c.sampler,
+            "fit_check": c.fit_check,
             "tied": c.tied,
             "u_mean": c.u.mean(axis=0),
             "u_sd": c.u.std(axis=0),

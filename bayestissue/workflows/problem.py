@@ -21,7 +21,7 @@ from bayestissue.mechanics import ForwardModel, param_names, parse_parameters
 from bayestissue.mechanics.presets import preset
 from bayestissue.paper import KIND_BOUNDS, KIND_INITIAL, PAPER_PARAMETERS, PARAM_UNITS
 from bayestissue.workflows.config import CalibrationConfig
-from bayestissue.workflows.forward import SpecimenForward, noise_sd, specimen_spec
+from bayestissue.workflows.forward import SpecimenForward, noise_sd, specimen_kinds, specimen_spec
 
 __all__ = ["paper_parameter_set", "build_problem", "creep_geometry", "reference_stretch", "reference_values"]
 
@@ -162,7 +162,8 @@ def _material(experiments, config: CalibrationConfig) -> ParameterSet:
         kind, target = config.specimen
         if target not in [e.name for e in experiments]:
             raise ValidationError("specimen target", target, f"one of {[e.name for e in experiments]}")
-        material = ParameterSet(material.specs + (specimen_spec(kind),), material.fixed_inputs)
+        extra = tuple(specimen_spec(k) for k in specimen_kinds(kind))
+        material = ParameterSet(material.specs + extra, material.fixed_inputs)
     return material
 
 

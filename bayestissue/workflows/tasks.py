@@ -32,6 +32,7 @@ from bayestissue.inference import (
 )
 from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.diagnostics import rhat_ensembles
+from bayestissue.inference.fit_check import fit_check, fit_check_text
 from bayestissue.inference.likelihood import _tag
 from bayestissue.io.results import read_inference_data
 from bayestissue.workflows.config import CalibrationConfig
@@ -115,6 +116,7 @@ class CalibrationDraws:
     time_mcmc_s: float = 0.0
     experiment_names: tuple = ()
     sampler: str = "inference.sample_posterior"
+    fit_check: str = ""
     n_dropped: int = 0
     tied: dict = field(default_factory=dict)
 
@@ -234,7 +236,9 @@ def attach_posterior(outcome: CalibrationDraws, path, *, keep: int = 4000) -> Ca
     attribute lists the parameters tied to it), thinned evenly to at most ``keep``; ``u`` is their scaled box;
     ``loglik`` the file's pointwise log-likelihood summed per experiment (its own noise model, e.g.
     a sampled sd); ``rhat`` the file's between-ensemble R-hat (each variable's ``rhat_ensembles`` attribute);
-    ``sampler`` names the file and its convergence verdict. Nuisance draws (noise sd) are dropped.
+    ``sampler`` names the file and its convergence verdict, ``fit_check`` its posterior predictive check
+    (:mod:`bayestissue.inference.fit_check`; recomputed for a file written before the check existed). Nuisance draws
+    (noise sd) are dropped.
     """
     box = paper_parameter_set()
     if tuple(outcome.names) != box.names:
@@ -262,6 +266,7 @@ def attach_posterior(outcome: CalibrationDraws, path, *, keep: int = 4000) -> Ca
     out.n_failed = int(attrs.get("n_failed_forward", 0))
     out.time_mcmc_s = float(attrs.get("sampling_time_s", float("nan")))
     out.sampler = f"{path.name}: {attrs.get('convergence', 'no verdict recorded')}"
+    out.fit_check = str(attrs.get("fit_check") or fit_check_text(fit_check(idata)))
     out.tied = tied
     return out
 

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bayestissue.workflows.report.causes import causes_section
+from bayestissue.workflows.report.causes import causes_section, which_cause
+from bayestissue.workflows.report.controls import controls_section
 from bayestissue.workflows.report.discrepancy import discrepancy_section
 from bayestissue.workflows.report.identify import identifiability_section
 from bayestissue.workflows.report.limitations import limitations_section
 from bayestissue.workflows.report.measured import measured_section
 from bayestissue.workflows.report.resolution import resolution_sections
+from bayestissue.workflows.report.summary import summary_lines
 
 __all__ = ["report_text"]
 
@@ -31,6 +33,7 @@ def report_text(A: dict, B: dict, out: Path) -> str:
         f"`t1_vs_t2_summary.json` (mode `{B['mode']}`). All analyses use the reduced uniaxial model "
         "(docs/model.md) and the data files `data/T1.*`, `data/T2.*`.\n"
     )
+    at = len(L)  # the summary goes here once the sections have computed it
     w(
         "> **The data are synthetic replicas**: T1 was simulated with the paper's Table 1 *T1* estimates and T2 "
         "with its *T2* estimates, each plus Gaussian noise of sd 0.02 mm (data file headers). The two specimens "
@@ -46,7 +49,10 @@ def report_text(A: dict, B: dict, out: Path) -> str:
     s1 = identifiability_section(A, out, w)
     s2 = discrepancy_section(B, names, out, w)
     s3 = causes_section(B, names, s2["t"], s2["bc"], w)
+    controls = controls_section(out, w, replica_q=s2["t"]["Q"])
+    which_cause(s3, controls, w)
     resolution_sections(A, names, s1["prof"], s1["post"], s3["R"], s3["f_best"], w)
     limitations_section(A, B, s3["C"], w)
     measured_section(out, w)
+    L[at:at] = summary_lines(A, B, s3, controls)
     return "\n".join(L) + "\n"

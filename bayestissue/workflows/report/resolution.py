@@ -79,14 +79,14 @@ def resolution_sections(A: dict, names, prof: dict, post: dict, R: dict, f_best,
     )
     widths = {}
     for f, pr in R["profiles"].items():
-        cis = [pr.get(k) for k in ("ci_beta2", "ci_beta3")]
-        if all(c and c[0] is not None and c[1] is not None for c in cis):
-            widths[float(f)] = max(np.log10(c[1] / c[0]) for c in cis)
+        c = pr.get("ci_beta2")
+        if c and c[0] is not None and c[1] is not None:
+            widths[float(f)] = float(np.log10(c[1] / c[0]))
     if widths:
         fw = min(widths, key=widths.get)
         txt = (
-            f"the relaxation rates of the simulated T1-like tissue are pinned best at f = {num(fw, 'g')} x the T2 "
-            f"rate (ramp of {num(612 / fw, '.0f')} s; 95 % profile intervals spanning at most "
+            f"the relaxation rate of the simulated T1-like tissue is pinned best at f = {num(fw, 'g')} x the T2 "
+            f"rate (ramp of {num(612 / fw, '.0f')} s; 95 % profile interval of beta2 spanning "
             f"{num(widths[fw], '.2f')} decades"
             + (f", against {num(widths[1.0], '.2f')} decades at T2's own rate" if 1.0 in widths else "")
             + f"); the linearised analysis favours f = {num(f_best, 'g')}. Ramps much faster than T2's lose them."
