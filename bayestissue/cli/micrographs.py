@@ -135,12 +135,12 @@ def run(args) -> int:
 def _pixel_size(source, given: float | None) -> float:
     """``--pixel-size-um``, else what the (first) TIFF states; a one-line refusal when neither gives one."""
     from bayestissue._validation import ValidationError, check_positive
-    from bayestissue.io.micrographs import IMAGE_SUFFIXES, tiff_pixel_size_um
+    from bayestissue.io.micrographs import section_files, tiff_pixel_size_um
 
     src = Path(source)
     first = src
     if src.is_dir():
-        files = sorted(p for p in src.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        files = section_files(src)  # the reader's order: the first section is the one whose metadata counts
         first = files[0] if files else src
     stated = None
     if first.is_file() and first.suffix.lower() in (".tif", ".tiff"):

@@ -22,6 +22,7 @@ __all__ = [
     "IMAGE_SUFFIXES",
     "read_micrographs",
     "tiff_pixel_size_um",
+    "section_files",
     "write_micrographs",
     "write_truth",
     "read_truth",
@@ -32,6 +33,11 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 
 def _natural_key(path: Path):
     return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
+
+
+def section_files(folder: str | Path) -> list[Path]:
+    """The section images of ``folder`` in natural sort order of their names (``s2.png`` before ``s10.png``)."""
+    return sorted((p for p in Path(folder).iterdir() if p.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key)
 
 
 def _to_uint8(img: np.ndarray, name: str) -> np.ndarray:
@@ -127,7 +133,7 @@ def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:
     if not src.exists():
         raise FileNotFoundError(f"micrograph source {str(src)!r} does not exist")
     if src.is_dir():
-        files = sorted((p for p in src.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key)
+        files = section_files(src)
         if not files:
             raise ValidationError("source", str(src), f"a folder with {'/'.join(IMAGE_SUFFIXES)} section images")
         imgs, names = [], []

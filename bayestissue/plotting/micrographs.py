@@ -8,9 +8,13 @@ from matplotlib.colors import ListedColormap
 from matplotlib.lines import Line2D
 
 from bayestissue._validation import check_positive
+from bayestissue.plotting.style import FONT
 from bayestissue.stereology.rose import lambert_project
 
 __all__ = ["plot_overlay", "plot_validation", "LABEL_COLOURS"]
+
+#: Font sizes from the style module (one step below its defaults: these panels are small).
+_LEGEND, _SMALL, _TITLE = FONT["legend"] - 1, FONT["tick"] - 1, FONT["title"] - 1
 
 #: Display colours of CAVITY, ECM, SMC.
 LABEL_COLOURS = ("#f2f2f2", "#3b6fd4", "#c8323c")
@@ -93,7 +97,7 @@ def plot_overlay(
     a0.set_ylabel("y (px)")
     a0.set_title(title or "registered section")
     a1.set_title("segmentation: cavity (white), ECM (blue), SMC (red)")
-    a0.legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.8)
+    a0.legend(handles=handles, loc="lower left", fontsize=_LEGEND, framealpha=0.8)
     return fig
 
 
@@ -122,7 +126,7 @@ def plot_validation(main, sep):
     ax.set_xticks([0, 1], ["SMC / tissue", "ECM / tissue"])
     ax.set_ylabel("volume fraction")
     ax.set_title("(a) point counting on SURS sections")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=_LEGEND)
     # (b) L_V
     ax = fig.add_subplot(gs[0, 1])
     for i, r in enumerate((main, sep)):
@@ -138,7 +142,7 @@ def plot_validation(main, sep):
     ax.set_xlim(-0.6, 1.6)
     ax.set_ylabel("L_V (um^-2)")
     ax.set_title("(b) length density")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=_LEGEND)
     # (c) registration error
     ax = fig.add_subplot(gs[0, 2])
     for r, name, c in ((main, "default", "C0"), (sep, "separable", "C2")):
@@ -148,7 +152,7 @@ def plot_validation(main, sep):
     ax.set_xlabel("section")
     ax.set_ylabel("mean displacement error (px)")
     ax.set_title("(c) registration error\n(template of 3 sections)")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=_LEGEND)
     # (d, e) directions: Lambert equal-area of traced pieces, estimated axes, truth
     for k, (r, name) in enumerate(((main, "default"), (sep, "separable"))):
         if r is None:
@@ -166,7 +170,7 @@ def plot_validation(main, sep):
         for j in range(3):  # each axis' error and cone, pushed towards the centre, clear of the rim markers
             inward = -est[j] / (np.linalg.norm(est[j]) + 1e-12)
             ax.annotate(f"{r['dir_err_deg'][j]:.1f} deg (cone {r['dirs']['cone_deg'][j]:.1f})", est[j],
-                        xytext=tuple(38 * inward), textcoords="offset points", fontsize=7, ha="center",
+                        xytext=tuple(38 * inward), textcoords="offset points", fontsize=_SMALL, ha="center",
                         va="center", bbox={"fc": "white", "ec": "0.7", "pad": 1.5, "alpha": 0.9},
                         arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.6})  # fmt: skip
         ax.add_patch(plt.Circle((0, 0), np.sqrt(2), fill=False, color="0.5"))
@@ -174,7 +178,7 @@ def plot_validation(main, sep):
         ax.set_xlim(-1.5, 1.5)
         ax.set_ylim(-1.5, 1.5)
         ax.set_title(f"({'de'[k]}) directions, {name} phantom\n(Lambert equal-area, upper half)")
-        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3, frameon=False)
+        ax.legend(fontsize=_LEGEND, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3, frameon=False)
     # (f) V_V over SURS repeats vs predicted CE
     ax = fig.add_subplot(gs[1, 2])
     vv = main["vv_surs"]
@@ -188,5 +192,5 @@ def plot_validation(main, sep):
     ax.set_xlabel("V_V(SMC, tissue)")
     ax.set_ylabel("SURS starts")
     ax.set_title("(f) SURS spread vs predicted CE\n(one sample)")
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)  # off the bands
+    ax.legend(fontsize=_LEGEND, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)  # off the bands
     return fig

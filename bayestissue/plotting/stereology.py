@@ -11,6 +11,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from bayestissue.plotting.style import FONT
 from bayestissue.stereology.lines import to_upper_hemisphere
 from bayestissue.stereology.rose import EqualAreaRose, lambert_project
 
@@ -20,6 +21,9 @@ __all__ = [
     "plot_lambert_directions",
     "plot_ce_check",
 ]
+
+#: Font sizes from the style module (one step below its defaults: these panels are small).
+_LEGEND, _SMALL, _TITLE = FONT["legend"] - 1, FONT["tick"] - 1, FONT["title"] - 1
 
 _RANK_STYLES = ("-", "--", "-.")
 
@@ -102,7 +106,7 @@ def _lambert_frame(ax):
         r = np.sqrt(2 * (1 - np.sin(np.radians(el))))
         ax.plot(r * np.cos(t), r * np.sin(t), color="0.8", lw=0.8, zorder=0)
         # on the 255 deg ray, between the azimuth labels 240 and 270 (at -80 deg "el 0" ran into "270")
-        ax.text(r * np.cos(np.radians(255)), r * np.sin(np.radians(255)), f"el {el}", fontsize=7, color="0.45",
+        ax.text(r * np.cos(np.radians(255)), r * np.sin(np.radians(255)), f"el {el}", fontsize=_SMALL, color="0.45",
                 ha="center", va="center", bbox={"fc": "white", "ec": "none", "pad": 0.5})  # fmt: skip
     for a in range(0, 360, 30):
         ax.plot(
@@ -112,7 +116,14 @@ def _lambert_frame(ax):
             lw=0.6,
             zorder=0,
         )
-        ax.text(1.5 * np.cos(np.radians(a)), 1.5 * np.sin(np.radians(a)), f"{a}", ha="center", va="center", fontsize=7)
+        ax.text(
+            1.5 * np.cos(np.radians(a)),
+            1.5 * np.sin(np.radians(a)),
+            f"{a}",
+            ha="center",
+            va="center",
+            fontsize=_SMALL,
+        )
     ax.set_aspect("equal")
     ax.set_xlim(-1.85, 1.85)  # room for cones (at most MAX_CONE_DEG wide) that cross the rim
     ax.set_ylim(-1.85, 1.85)
@@ -174,11 +185,18 @@ def plot_lambert_directions(directions_by_n: dict, *, cones_by_n: dict | None = 
     if ref is not None:
         xy = lambert_project(ref, upper=False)
         ax.plot(xy[:, 0], xy[:, 1], "kx", ms=9, mew=2, label="paper v1-v3")
-    ax.legend(loc="upper left", fontsize=7, title="n", title_fontsize=7, frameon=False, bbox_to_anchor=(-0.02, 1.02))
+    ax.legend(
+        loc="upper left",
+        fontsize=_LEGEND,
+        title="n",
+        title_fontsize=_LEGEND,
+        frameon=False,
+        bbox_to_anchor=(-0.02, 1.02),
+    )
     ax.set_title(
         "Lambert equal-area about z (rim: elevation 0)\nrank/family 1 solid, 2 dashed, 3 dash-dotted; "
         f"open ring: 95 % cone wider than {MAX_CONE_DEG:g} deg (not drawn)",
-        fontsize=9,
+        fontsize=_TITLE,
         pad=14,
     )
     return fig
@@ -207,10 +225,10 @@ def plot_ce_check(results: list[dict], *, x: str = "n_sections", ax=None, title:
     ax.set_yscale("log")
     ax.set_xlabel("number of sections" if x == "n_sections" else x)
     ax.set_ylabel("CE of V_V")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=_LEGEND)
     ax.grid(True, which="both", alpha=0.3)
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(title, fontsize=_TITLE)
     return fig
 
 

@@ -83,6 +83,21 @@ def test_pixel_size_from_tiff_metadata(phantom_dir, tmp_path, capsys):
     assert read_point_counts(out / "point_counts.csv")["grid_spacing_um"] == 10
 
 
+def test_metadata_comes_from_the_first_section_in_reading_order(phantom_dir, tmp_path):
+    """A folder read s2, s10 (natural order, as the reader does): the pixel size is s2's, not the plain sort's s10."""
+    from bayestissue.cli.micrographs import _pixel_size
+    from bayestissue.io.micrographs import section_files
+
+    images, _ = read_micrographs(phantom_dir)
+    folder = tmp_path / "tifs"
+    folder.mkdir()
+    for name, px_per_cm in (("s2.tif", 2e4), ("s10.tif", 1e4)):
+        tifffile.imwrite(folder / name, images[0], photometric="rgb", resolution=(px_per_cm, px_per_cm),
+                         resolutionunit="CENTIMETER")  # fmt: skip
+    assert [p.name for p in section_files(folder)] == ["s2.tif", "s10.tif"]
+    assert _pixel_size(folder, None) == pytest.approx(0.5)
+
+
 def test_jpeg_sections_are_read(phantom_dir, tmp_path):
     """JPEG is lossy: the sections come back the same size and close (quality 95 with chroma subsampling on noisy
     38 px sections: mean absolute difference 5.6 grey levels measured)."""

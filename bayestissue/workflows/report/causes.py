@@ -208,11 +208,31 @@ def causes_section(B: dict, names, t: dict, bc, w) -> dict:
 
 
 def which_cause(s3: dict, controls: dict | None, w) -> None:
-    """The summary of section 3: each cause's verdict on the replicas, and what the controls say the analysis can
-    tell apart (``controls``: the controls summary, or None if that stage did not run)."""
+    """The summary of section 3: the verdict of the controlled rules on the data (when the controls ran), then the
+    per-cause analyses above (``controls``: the controls summary, or None if that stage did not run)."""
+    from bayestissue.workflows.controls import CAUSES
+
     w("### Which cause does the evidence support?\n")
+    if controls:
+        v = controls["data"]["verdict"]
+        tab = controls["table"]
+        neg = [r for r in tab.values() if not r["planted"]]
+        planted = {k: r for k, r in tab.items() if r["planted"]}
+        good = [k for k, r in planted.items() if r["named"] >= 0.8 * r["n"]]
+        named = " + ".join(CAUSES[int(k)] for k in v["named"])
+        w(
+            f"- **Verdict of the controlled rules** (previous section; the rules whose error rates the controls "
+            f"measured): *{v['kind']}*" + (f" ({named})" if named else "") + ". Those rules called the negative "
+            f"control a difference in {sum(r['n'] - r['named'] for r in neg)} of {sum(r['n'] for r in neg)} seeds "
+            f"and named the planted cause in at least 4 of 5 seeds in {len(good)} of {len(planted)} scenarios"
+            + (f" (not in: {', '.join(k for k in planted if k not in good)})" if len(good) < len(planted) else "")
+            + ". *Partial* means that the named causes each remove part of the tension and no single cause or "
+            "pair of causes removes all of it."
+        )
     w(
-        f"- cause 1 (rate): {'yes for the viscosity parameters' if s3['c1'] else 'no'}; "
+        f"- The per-cause analyses above (11-parameter least squares, designed ramps, stereology replicates; "
+        f"{'not' if controls else 'no controls run, so not'} validated by the controls): cause 1 (rate): "
+        f"{'yes for the viscosity parameters' if s3['c1'] else 'no'}; "
         f"cause 2 (directions/fractions): {'yes' if s3['c2'] else 'no'}; cause 3 (specimen, one stiffness scale): "
         f"{'preferred' if s3['c3_pref'] else 'not preferred'}, {'complete' if s3['c3_full'] else 'partial'}."
     )
@@ -221,19 +241,5 @@ def which_cause(s3: dict, controls: dict | None, w) -> None:
         "here unless stated otherwise above: the two curves need different material behaviour (different "
         "relative stiffness of matrix and fibres and different fibre viscosity), i.e. the specimens differ "
         "by more than a common stiffness factor or a fibre angle within the stereological uncertainty. In these "
-        "synthetic data that is exactly how they were generated (two different parameter sets)."
+        "synthetic data that is exactly how they were generated (two different parameter sets).\n"
     )
-    if controls:
-        v = controls["data"]["verdict"]
-        tab = controls["table"]
-        neg = [r for r in tab.values() if not r["planted"]]
-        planted = {k: r for k, r in tab.items() if r["planted"]}
-        good = [k for k, r in planted.items() if r["named"] >= 0.8 * r["n"]]
-        w(
-            f"- With controls (previous section): the negative control was called a difference in "
-            f"{sum(r['n'] - r['named'] for r in neg)} of {sum(r['n'] for r in neg)} seeds; the planted cause was "
-            f"named in at least 4 of 5 seeds in {len(good)} of {len(planted)} scenarios"
-            + (f" (not in: {', '.join(k for k in planted if k not in good)})" if len(good) < len(planted) else "")
-            + f". On these data the same rules give *{v['kind']}*."
-        )
-    w("")
