@@ -48,7 +48,10 @@ def report_text(A: dict, B: dict, out: Path) -> str:
     )
     s1 = identifiability_section(A, out, w)
     s2 = discrepancy_section(B, names, out, w)
-    s3 = causes_section(B, names, s2["t"], s2["bc"], w)
+    g = names.index("gamma2")
+    c2 = A["calibration"]["T2"]
+    t2_gamma, t2_ls = (c2["q05"][g], c2["q95"][g]), (c2["ls_x"][g], c2["ls_x"][g + 1])
+    s3 = causes_section(B, names, s2["t"], s2["bc"], w, t2_gamma=t2_gamma, t2_ls=t2_ls)
     controls = controls_section(out, w, replica_q=s2["t"]["Q"])
     which_cause(s3, controls, w)
     resolution_sections(A, names, s1["prof"], s1["post"], s3["R"], s3["f_best"], w)
