@@ -139,10 +139,10 @@ def plot_validation(main, sep):
         ax.fill_between([i - 0.25, i + 0.25], 0.85 * r["lv_true"], 1.15 * r["lv_true"],
                         color="0.85", label="truth +- 15 %" if i == 0 else None)  # fmt: skip
     ax.set_xticks([0, 1], ["default\n58.9 % SMC", "separable\n42 % SMC"])
-    ax.set_xlim(-0.6, 1.6)
     ax.set_ylabel("L_V (um^-2)")
     ax.set_title("(b) length density")
-    ax.legend(fontsize=_LEGEND)
+    ax.set_xlim(-0.6, 2.4)  # room on the right for the legend, clear of the error bars
+    ax.legend(fontsize=_LEGEND, loc="upper right")
     # (c) registration error
     ax = fig.add_subplot(gs[0, 2])
     for r, name, c in ((main, "default", "C0"), (sep, "separable", "C2")):

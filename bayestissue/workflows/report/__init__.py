@@ -50,7 +50,8 @@ def report_text(A: dict, B: dict, out: Path) -> str:
     s2 = discrepancy_section(B, names, out, w)
     g = names.index("gamma2")
     c2 = A["calibration"]["T2"]
-    t2_gamma, t2_ls = (c2["q05"][g], c2["q95"][g]), (c2["ls_x"][g], c2["ls_x"][g + 1])
+    best = A["profile_reference"]["T2"]["theta_final"]  # section 4's least squares: the best optimum found
+    t2_gamma, t2_ls = (c2["q05"][g], c2["q95"][g]), tuple(best[g : g + 2]) + tuple(best[g + 3 : g + 5])
     s3 = causes_section(B, names, s2["t"], s2["bc"], w, t2_gamma=t2_gamma, t2_ls=t2_ls)
     controls = controls_section(out, w, replica_q=s2["t"]["Q"])
     which_cause(s3, controls, w)

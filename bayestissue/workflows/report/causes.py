@@ -12,8 +12,8 @@ __all__ = ["causes_section"]
 
 def causes_section(B: dict, names, t: dict, bc, w, t2_gamma=None, t2_ls=None) -> dict:
     """Write section 3 with ``w``; returns what sections 5 and the limitations read (rates, best rate, cut).
-    ``t2_gamma``: the T2 posterior's 90 % interval of gamma2, ``t2_ls`` its least-squares (gamma2, beta2)
-    (identifiability summary), quoted beside the cause-1 verdict."""
+    ``t2_gamma``: the T2 posterior's 90 % interval of gamma2, ``t2_ls`` its least-squares (gamma2, beta2, gamma3,
+    beta3) (identifiability summary), quoted beside the cause-1 verdict."""
     w("## 3. The paper's three candidate causes\n")
     R = B["rates"]
     w("### Cause 1: the faster loading in T2 hid the fibre viscosity\n")
@@ -130,8 +130,8 @@ def causes_section(B: dict, names, t: dict, bc, w, t2_gamma=None, t2_ls=None) ->
             "strongly viscous fibre."
             + t2
             + (
-                f" The T2 data's own least-squares fit (section 4) has gamma2 = {num(t2_ls[0])}, beta2 = "
-                f"{num(t2_ls[1])} 1/s"
+                f" The T2 data's own least-squares fit (section 4) has (gamma2, beta2) = ({num(t2_ls[0])}, "
+                f"{num(t2_ls[1])} 1/s) and (gamma3, beta3) = ({num(t2_ls[2])}, {num(t2_ls[3])} 1/s)"
                 if t2_ls
                 else ""
             )
