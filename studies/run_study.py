@@ -2,9 +2,9 @@
 
 Stages run in order, each a script in studies/ with a ``main(argv)``; the time of each is printed at the end.
 ``--quick`` is a smoke run (CI-sized chains, about 2 minutes) and writes into its own folder, never over the committed
-results; ``--full`` publication-quality chains; the default aims at 20 minutes on a 2-core machine and now takes
-about 24 (measured on a fresh clone: 1575 s of stages with the machine shared, 759 s of them calibration and 336 s
-the measured-data stage, which takes 127 s alone since its brain cases use one network per nested bound).
+results; ``--full`` publication-quality chains; the default aims at 20 minutes on a 2-core machine and takes about
+20 (measured on 2026-11-25: 1217 s of stages, 684 s of them calibration, 160 s the controls of the T1-vs-T2 answer
+and 97 s the measured-data stage).
 
     python studies/run_study.py [--quick | --full] [--only STAGE ...]   # STAGE: a script or a stage name
 """

@@ -44,10 +44,36 @@ def test_figures_are_built_and_labelled():
             coverage=1.0,
             title="x",
         ),
-        plot_rate_study([0.1, 1, 10], {"beta2": np.array([1.0, 2.0, np.inf])}, marks={"beta2": np.array([1, 0, -1])}),
+        plot_rate_study(
+            [0.1, 1, 10],
+            {"gamma2": np.array([0.01, 0.1, np.inf]), "beta2": np.array([0.1, 1.0, np.inf])},
+            {
+                0.1: {
+                    "gamma2": "identifiable",
+                    "ci_gamma2": [0.85, 0.9],
+                    "beta2": "identifiable",
+                    "ci_beta2": [1e-4, 1e-3],
+                },
+                1.0: {
+                    "gamma2": "practically non-identifiable",
+                    "ci_gamma2": [0.8, None],  # None (JSON) or NaN: open
+                    "beta2": "practically non-identifiable",
+                    "ci_beta2": [float("nan"), 2e-3],
+                },
+            },
+            {"gamma2": 0.88, "beta2": 4e-4},
+            {"gamma2": (0.1, 0.95), "beta2": (1e-5, 2.5)},
+        ),  # fmt: skip
     ]
-    assert [len([ax for ax in f.axes if ax.get_visible()]) for f in figs] == [3, 1, 1, 1, 3, 1, 1]
+    assert [len([ax for ax in f.axes if ax.get_visible()]) for f in figs] == [3, 1, 1, 1, 3, 1, 2]
     assert figs[0].axes[0].get_xlabel() == "a"  # the parameter (with its unit, when it has one)
     assert "100 %" in figs[5].axes[0].get_title()
+    # the rate figure: an open side runs to the box bound and ends in an arrow there
+    g_ax, b_ax = figs[6].axes
+    assert g_ax.get_ylabel() == "gamma2 (1)" and b_ax.get_ylabel() == "beta2 (1/s)"
+    bars = [ln for ln in b_ax.lines if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == 1.0]
+    assert bars and bars[0].get_ydata()[0] == 1e-5 and bars[0].get_ydata()[1] == 2e-3
+    assert any(ln.get_marker() == "v" and ln.get_ydata()[0] == 1e-5 for ln in b_ax.lines)
+    assert any(ln.get_marker() == "^" and ln.get_ydata()[0] == 0.95 for ln in g_ax.lines)
     for f in figs:
         plt.close(f)

@@ -77,8 +77,9 @@ def causes_section(B: dict, names, t: dict, bc, w, t2_gamma=None, t2_ls=None) ->
     se_b = np.array([fl(v) for v in R["se_log"]["beta2"]])
     f_best = R["factors"][int(np.nanargmin(se_b))]
     p1 = R["profiles"].get("1.0", {})
-    # rule (fixed): the viscosity is hidden at T2's rate only if the T1-like design leaves its strength gamma2 open on
-    # both sides; a closed side means a T2 test on tissue with T1's viscosity would have shown it
+    # rule (chosen with the mirror-model rate study, 2026-11-25; the earlier rule read beta2 alone): the viscosity is
+    # hidden at T2's rate only if the T1-like design leaves its strength gamma2 open on both sides; a closed side means
+    # a T2 test on tissue with T1's viscosity would have shown it. The report states beta2's open side beside it.
     g_ci, b_ci = p1.get("ci_gamma2") or [None, None], p1.get("ci_beta2") or [None, None]
     c1 = bool(p1) and g_ci[0] is None and g_ci[1] is None
     tr = R["truth"]
