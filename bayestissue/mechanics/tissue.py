@@ -25,9 +25,16 @@ __all__ = [
     "TissueConfig",
     "PAPER_TISSUE",
     "param_names",
+    "modulus_indices",
     "parse_parameters",
     "check_parameters",
 ]
+
+
+def modulus_indices(names) -> list[int]:
+    """Positions of the moduli (``mu``, ``kappa``, ``ginf<k>``) among parameter ``names``: what a stiffness scale
+    multiplies."""
+    return [i for i, n in enumerate(names) if n.rstrip("0123456789") in ("mu", "kappa", "ginf")]
 
 
 def param_names(n_fibres: int = 3) -> tuple[str, ...]:

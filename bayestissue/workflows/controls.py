@@ -50,6 +50,7 @@ from bayestissue.inference import fit_least_squares
 from bayestissue.inference.warmstart import latin_hypercube
 from bayestissue.mechanics import Experiment, simulate
 from bayestissue.mechanics.branches import second_branch_ties, with_second_branch
+from bayestissue.mechanics.tissue import modulus_indices
 from bayestissue.paper import MIRROR_TIES, PAPER_HALF_ANGLE_DEG, PAPER_PARAMETERS
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.forward import tissue_with_half_angle
@@ -163,8 +164,7 @@ def make_pair(t1: Experiment, t2: Experiment, scenario: Scenario, seed: int) -> 
         fast = [2 * p[5] * share, gamma, beta]
         p = np.concatenate([p[:5], slow, slow, fast, fast])
     p2 = p.copy()
-    moduli = [i for i, n in enumerate(tissue.param_names) if n.rstrip("0123456789") in ("mu", "kappa", "ginf")]
-    p2[moduli] *= scenario.scale
+    p2[modulus_indices(tissue.param_names)] *= scenario.scale
     return _noisy(t1, tissue, p, rng), _noisy(t2, tissue2, p2, rng)
 
 

@@ -22,6 +22,7 @@ import numpy as np
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference import ParameterSpec
 from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig
+from bayestissue.mechanics.tissue import modulus_indices
 from bayestissue.paper import PAPER_HALF_ANGLE_DEG
 
 __all__ = [
@@ -96,7 +97,7 @@ class SpecimenForward:
         self.model = ForwardModel(experiment)
         names = experiment.tissue.param_names
         self.n_material = len(names)
-        self.moduli = [i for i, n in enumerate(names) if n.rstrip("0123456789") in ("mu", "kappa", "ginf")]
+        self.moduli = modulus_indices(names)
 
     def __call__(self, params) -> np.ndarray:
         p = np.atleast_2d(np.asarray(params, dtype=float))
