@@ -28,7 +28,7 @@ from bayestissue.mechanics import simulate
 from bayestissue.paper import MIRROR_TIES, PAPER_BOUNDS, PAPER_HALF_ANGLE_DEG
 from bayestissue.workflows.calibration_study import mirror_coordinates
 from bayestissue.workflows.forward import ExperimentResiduals, MirrorResiduals
-from bayestissue.workflows.identifiability import NAMES, cached_map, interior, profile_options
+from bayestissue.workflows.identifiability import MAX_RESTARTS, NAMES, cached_map, interior, profile_options
 from bayestissue.workflows.problem import paper_parameter_set
 from bayestissue.workflows.propagate import half_angles_deg, interval_width, pool_draws, replicate_tissues
 from bayestissue.workflows.scenarios import ramp_scenario, synthetic_replica
@@ -37,7 +37,6 @@ from bayestissue.workflows.tasks import CalibrationTask, drop_stuck_draws
 __all__ = [
     "VISC",
     "MIRROR_NAMES",
-    "RATE_MAX_RESTARTS",
     "cross_predict",
     "rate_study",
     "replicate_tasks",
@@ -49,9 +48,6 @@ __all__ = [
 VISC = ("gamma2", "beta2")
 #: The mirror model's parameters (the rate study's model: the simulated truth is mirror-symmetric).
 MIRROR_NAMES = NAMES[:8]
-#: Restarts allowed per rate profile: high enough that the default study never reaches it (the report says so
-#: where a run does).
-RATE_MAX_RESTARTS = 25
 
 
 def cross_predict(exp, draws, *, n, sd, rng):
@@ -79,7 +75,8 @@ def rate_study(args, client, e2, truth):
     family 3 = family 2), analysed in the mirror model (8 parameters; the 11-parameter profiles of beta2 and beta3
     traded one family's viscosity for the other's, which made their classification jump between rates).
     Gauss-Newton sd of log gamma2, log beta2 at every rate; profiles of gamma2 and beta2 at the profiled rates,
-    restarted from every improvement until none improves (:data:`RATE_MAX_RESTARTS`)."""
+    restarted from every improvement until none improves (cap
+    :data:`~bayestissue.workflows.identifiability.MAX_RESTARTS`)."""
     m = args.mode
     truth = np.asarray(truth, dtype=float)
     t8 = interior(truth[:8], PAPER_BOUNDS[:8, 0], PAPER_BOUNDS[:8, 1])
@@ -103,7 +100,7 @@ def rate_study(args, client, e2, truth):
             MirrorResiduals(ExperimentResiduals((exp,))),
             t8,
             idx,
-            max_restarts=RATE_MAX_RESTARTS,
+            max_restarts=MAX_RESTARTS,
             refit_nfev=max(m.ls_nfev, 100),
             map_fn=cached_map(args, client),
             **kw,
