@@ -27,10 +27,6 @@ from bayestissue.workflows import controls as ctl  # noqa: E402
 SEEDS = {"quick": 1, "default": 5, "full": 10}
 
 
-def _jsonable(fit: dict) -> dict:
-    return {k: ({str(a): b for a, b in v.items()} if isinstance(v, dict) else v) for k, v in fit.items()}
-
-
 def main(argv=None) -> int:
     args = ids.parse_args(argv, __doc__, root=Path(__file__).resolve().parents[1])
     out = Path(args.out)
@@ -63,7 +59,7 @@ def main(argv=None) -> int:
     records = [dict(r, verdict=ctl.verdict(r["fit"])) for r in results]
     table = ctl.confusion(records)
     q_thr = float(chi2_dist.isf(ctl.P_TENSION, ctl.N_SHARED))
-    fig = plot_controls(records, table, q_threshold=q_thr, causes=ctl.CAUSES)
+    fig = plot_controls(records, table, q_threshold=q_thr, label=lambda key: ctl.verdict_text(key, sep="\n"))
     save_figure(fig, out / "t1_vs_t2_controls.png")
     summary = {
         "mode": args.mode.name,
@@ -72,22 +68,14 @@ def main(argv=None) -> int:
         "q_threshold": q_thr,
         "base_parameters": list(map(float, ctl.BASE_PARAMETERS)),
         "scenarios": [{"name": s.name, "planted": list(s.planted), "strength": s.strength} for s in ctl.SCENARIOS],
-        "records": [
-            {k: (_jsonable(v) if k in ("fit",) else v) for k, v in r.items() if k != "verdict"}
-            | {"verdict": _jsonable_verdict(r["verdict"])}
-            for r in records
-        ],
-        "table": {k: dict(v, planted=list(v["planted"])) for k, v in table.items()},
-        "data": {"fit": _jsonable(data["fit"]), "verdict": _jsonable_verdict(data_verdict)},
+        "records": records,  # every key is a string already (cause models "1", "1+3" ...): JSON as they are
+        "table": table,
+        "data": {"fit": data["fit"], "verdict": data_verdict},
     }
     summary["timings_s"] = T.done()
     (out / "controls_summary.json").write_text(json.dumps(summary, indent=1))
     print("wrote", out / "controls_summary.json")
     return 0
-
-
-def _jsonable_verdict(v: dict) -> dict:
-    return dict(v, causes={str(k): c for k, c in v["causes"].items()}, named=list(v["named"]))
 
 
 if __name__ == "__main__":

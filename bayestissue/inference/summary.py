@@ -26,7 +26,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 
-__all__ = ["generating_fit", "summary_table", "table_markdown"]
+__all__ = ["draw_log_likelihood", "generating_fit", "summary_table", "table_markdown"]
 
 _EDGE, _PILE, _CONTRACT = 0.02, 0.10, 0.3
 
@@ -133,6 +133,13 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
     return {"columns": cols, "meta": meta}
 
 
+def draw_log_likelihood(idata) -> np.ndarray:
+    """Total log-likelihood of every stored draw (``(chain * draw,)``): the pointwise ``log_likelihood`` group summed
+    over its experiments and observations."""
+    total = sum(da.sum([d for d in da.dims if d not in ("chain", "draw")]) for da in idata.log_likelihood.values())
+    return np.asarray(total, dtype=float).ravel()
+
+
 def generating_fit(problem, idata, theta) -> dict[str, float]:
     """How well ``theta`` (e.g. a replica's generating values, all of ``problem.names`` including the
     noise parameters) fits the data, next to the posterior draws stored in ``idata``.
@@ -151,8 +158,7 @@ def generating_fit(problem, idata, theta) -> dict[str, float]:
     if theta.shape != (1, problem.ndim):
         raise ValidationError("theta", f"shape {theta.shape}", f"{problem.ndim} values ({', '.join(problem.names)})")
     ll_theta = float(problem.log_likelihood(theta)[0])
-    total = sum(da.sum([d for d in da.dims if d not in ("chain", "draw")]) for da in idata.log_likelihood.values())
-    ll = np.asarray(total, dtype=float).ravel()
+    ll = draw_log_likelihood(idata)
     q05, q95 = np.percentile(ll, [5, 95])
     return {
         "log_lik": ll_theta,

@@ -86,11 +86,16 @@ def second_branch_ties(tied, n_fibres: int, families) -> tuple[tuple[str, str], 
     branch = {k: n_fibres + 1 + j for j, k in enumerate(fams)}
     out = list(tied)
     for name, target in tied:
-        kind, k = name.rstrip("0123456789"), int(name[len(name.rstrip("0123456789")) :])
-        t = int(target[len(target.rstrip("0123456789")) :])
+        (kind, k), (_, t) = _kind_family(name), _kind_family(target)
         if k in branch and t in branch:
             out.append((f"{kind}{branch[k]}", f"{kind}{branch[t]}"))
     return tuple(out)
+
+
+def _kind_family(name: str) -> tuple[str, int]:
+    """``"ginf3"`` -> ``("ginf", 3)``."""
+    kind = name.rstrip("0123456789")
+    return kind, int(name[len(kind) :])
 
 
 def branch_relaxation(time_s, strain: float, ginf, gamma, beta) -> np.ndarray:

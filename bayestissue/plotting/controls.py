@@ -10,11 +10,11 @@ from bayestissue.plotting.style import FONT, tidy_axes
 __all__ = ["plot_controls"]
 
 
-def plot_controls(records, table: dict, *, q_threshold: float, causes: dict):
+def plot_controls(records, table: dict, *, q_threshold: float, label):
     """(a) the tension Q of every pair (log scale, one dot per noise seed) against the difference threshold;
     (b) the verdicts per scenario (rows: the scenarios of (a); columns: verdict; cell: number of seeds), each row
     with the number of seeds whose verdict contains the planted causes (or, for the negative control, no
-    difference)."""
+    difference). ``label(key)`` turns a verdict key of ``table`` into the column's text."""
     names = list(table)
     fig, (a, b) = plt.subplots(1, 2, figsize=(13, 0.55 * len(names) + 2.6), width_ratios=[1, 1.35])
     for i, name in enumerate(names):
@@ -40,20 +40,10 @@ def plot_controls(records, table: dict, *, q_threshold: float, causes: dict):
                 dark = counts[i, j] > 0.6 * counts.max()
                 b.text(j, i, str(counts[i, j]), ha="center", va="center", fontsize=FONT["label"],
                        color="w" if dark else "k")  # fmt: skip
-    b.set_xticks(range(len(cols)), [_label(c, causes) for c in cols], rotation=30, ha="right")
+    b.set_xticks(range(len(cols)), [label(c) for c in cols], rotation=30, ha="right")
     b.set_yticks(range(len(names)), [f"{table[n]['named']}/{table[n]['n']} as planted" for n in names])
     b.set_title("(b) verdict of the fixed rules (cell: noise seeds; rows as in (a))", fontsize=FONT["title"],
                 loc="left")  # fmt: skip
     tidy_axes(fig)
     fig.tight_layout()
     return fig
-
-
-def _label(column: str, causes: dict) -> str:
-    if column == "none":
-        return "no difference"
-    named, _, kind = column.partition(" (")
-    if named == "unexplained":
-        return "unexplained"
-    text = " + ".join(causes[int(k)] for k in named.split("+"))
-    return f"{text}\n({kind.rstrip(')')})"

@@ -44,8 +44,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.stats import chi2 as chi2_dist
 
+from bayestissue.identifiability import tension
 from bayestissue.inference import fit_least_squares
 from bayestissue.inference.warmstart import latin_hypercube
 from bayestissue.mechanics import Experiment, simulate
@@ -69,6 +69,7 @@ __all__ = [
     "confusion",
     "make_pair",
     "verdict",
+    "verdict_text",
 ]
 
 #: The one tissue: paper Table 1, T1 estimates, with beta3 = beta2 (mirror-symmetric).
@@ -222,12 +223,15 @@ def analyse_pair(e1: Experiment, e2: Experiment, *, seed: int = 0) -> dict:
         "specimen": {k: (2 in c) + (3 in c) for k, c in MODELS.items()},
         "n": int(e1.time_s.size + e2.time_s.size),
     }
-    for key, causes in MODELS.items():
-        if len(causes) == 2 and verdict(fit)["kind"] in ("no difference", "named", "indistinguishable"):
-            break  # the rules never look at the pairs then
-        fit["chi2"][key], x = _cause_model(e1, e2, (xj, x1, x2), causes, seed + 3)
+    singles = [k for k, c in MODELS.items() if len(c) == 1]
+    for key in singles:
+        fit["chi2"][key], x = _cause_model(e1, e2, (xj, x1, x2), MODELS[key], seed + 3)
         if key in ("2", "3"):
             fit["angle_deg" if key == "2" else "scale"] = float(x[-1])
+    if verdict(fit)["kind"] in ("no difference", "named", "indistinguishable"):
+        return fit  # the rules never look at the pairs then
+    for key in (k for k in MODELS if k not in singles):
+        fit["chi2"][key], _ = _cause_model(e1, e2, (xj, x1, x2), MODELS[key], seed + 3)
     return fit
 
 
@@ -244,26 +248,23 @@ def verdict(fit: dict) -> dict:
     difference", "named", "indistinguishable", "combination", "partial", "unexplained").
     """
     c = fit["chi2"]
-    sep = c["T1"] + c["T2"]
-    q = max(c["joint"] - sep, 0.0)
-    p = float(chi2_dist.sf(q, N_SHARED))
-    out = {"tension": {"Q": q, "p": p}, "different": p < P_TENSION, "causes": {}}
+    parts = [c["T1"], c["T2"]]
+    t = tension(c["joint"], parts, N_SHARED)
+    out = {"tension": {"Q": t["Q"], "p": t["p_value"]}, "different": t["p_value"] < P_TENSION, "causes": {}}
     fitted = [k for k in MODELS if k in c]
     bic = {k: c[k] + fit["extra"][k] * np.log(fit["n"]) for k in fitted}
     for k in fitted:
-        d = c["joint"] - c[k]
-        rem = max(c[k] - sep, 0.0)
-        rem_p = float(chi2_dist.sf(rem, N_SHARED - fit["specimen"][k]))
-        singles = [str(s) for s in MODELS[k]] if len(MODELS[k]) > 1 else []
-        needed = all(bic[s] - bic[k] > DBIC for s in singles)
+        dbic = c["joint"] - bic[k]  # BIC of the shared fit (no extra parameters) minus the cause model's
+        rem = tension(c[k], parts, N_SHARED - fit["specimen"][k])
+        needed = all(bic[str(s)] - bic[k] > DBIC for s in MODELS[k]) if len(MODELS[k]) > 1 else True
         out["causes"][k] = {
-            "delta_chi2": float(d),
-            "delta_bic": float(d - fit["extra"][k] * np.log(fit["n"])),
-            "remaining_Q": float(rem),
-            "remaining_p": rem_p,
-            "preferred": bool(d - fit["extra"][k] * np.log(fit["n"]) > DBIC),
+            "delta_chi2": float(c["joint"] - c[k]),
+            "delta_bic": float(dbic),
+            "remaining_Q": rem["Q"],
+            "remaining_p": rem["p_value"],
+            "preferred": bool(dbic > DBIC),
+            "explains": bool(dbic > DBIC and rem["p_value"] >= P_TENSION and needed),
         }
-        out["causes"][k]["explains"] = bool(out["causes"][k]["preferred"] and rem_p >= P_TENSION and needed)
     out["named"], out["kind"] = (), "no difference"
     if not out["different"]:
         return out
@@ -299,6 +300,17 @@ def confusion(records) -> dict:
         ok = (not v["different"]) if not planted else (v["different"] and planted <= set(v["named"]))
         row["named"] += int(ok)
     return table
+
+
+def verdict_text(key: str, *, sep: str = " ") -> str:
+    """A verdict key of :func:`confusion` in words, e.g. ``"2+3 (indistinguishable)"`` -> ``"fibre angle + specimen
+    stiffness (indistinguishable)"`` (``sep`` before the bracket)."""
+    if key == "none":
+        return "no difference"
+    named, _, kind = key.partition(" (")
+    if named == "unexplained":
+        return "unexplained"
+    return " + ".join(CAUSES[int(k)] for k in named.split("+")) + f"{sep}({kind.rstrip(')')})"
 
 
 def run_case(scenario: Scenario, seed: int, t1: Experiment, t2: Experiment) -> dict:

@@ -27,7 +27,7 @@ from bayestissue.identifiability.restarts import profile_all
 from bayestissue.mechanics import simulate
 from bayestissue.paper import MIRROR_TIES, PAPER_BOUNDS, PAPER_HALF_ANGLE_DEG
 from bayestissue.workflows.calibration_study import mirror_coordinates
-from bayestissue.workflows.forward import ExperimentResiduals, MirrorResiduals
+from bayestissue.workflows.forward import MIRROR_NAMES, ExperimentResiduals, MirrorResiduals
 from bayestissue.workflows.identifiability import MAX_RESTARTS, NAMES, cached_map, interior, profile_options
 from bayestissue.workflows.problem import paper_parameter_set
 from bayestissue.workflows.propagate import half_angles_deg, interval_width, pool_draws, replicate_tissues
@@ -46,8 +46,6 @@ __all__ = [
 
 #: The fibre viscosity parameters whose identifiability cause 1 is about (mirror model: family 3 = family 2).
 VISC = ("gamma2", "beta2")
-#: The mirror model's parameters (the rate study's model: the simulated truth is mirror-symmetric).
-MIRROR_NAMES = NAMES[:8]
 
 
 def cross_predict(exp, draws, *, n, sd, rng):
@@ -78,8 +76,9 @@ def rate_study(args, client, e2, truth):
     restarted from every improvement until none improves (cap
     :data:`~bayestissue.workflows.identifiability.MAX_RESTARTS`)."""
     m = args.mode
-    truth = np.asarray(truth, dtype=float)
-    t8 = interior(truth[:8], PAPER_BOUNDS[:8, 0], PAPER_BOUNDS[:8, 1])
+    free = [NAMES.index(n) for n in MIRROR_NAMES]  # the mirror model's columns among the paper's 11
+    lo, hi = PAPER_BOUNDS[free, 0], PAPER_BOUNDS[free, 1]
+    t8 = interior(np.asarray(truth, dtype=float)[free], lo, hi)
     idx = [MIRROR_NAMES.index(p) for p in VISC]
     se = {p: [] for p in VISC}
     scen = []
@@ -91,7 +90,7 @@ def rate_study(args, client, e2, truth):
         for p, j in zip(VISC, idx, strict=True):
             se[p].append(float(a.std_error_log[j]))
     opt = profile_options(m, max_nfev=100)
-    kw = dict(lower=PAPER_BOUNDS[:8, 0], upper=PAPER_BOUNDS[:8, 1], names=MIRROR_NAMES, batched=True, options=opt)
+    kw = dict(lower=lo, upper=hi, names=MIRROR_NAMES, batched=True, options=opt)
     cls = {}
     for f, exp in zip(m.rate_factors, scen, strict=True):
         if f not in m.rate_profile_factors:

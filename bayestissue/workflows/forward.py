@@ -21,14 +21,15 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference import ParameterSpec
-from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig
+from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig, param_names
 from bayestissue.mechanics.tissue import modulus_indices
-from bayestissue.paper import PAPER_HALF_ANGLE_DEG
+from bayestissue.paper import MIRROR_TIES, PAPER_HALF_ANGLE_DEG
 
 __all__ = [
     "SpecimenForward",
     "ExperimentResiduals",
     "MirrorResiduals",
+    "MIRROR_NAMES",
     "SPECIMEN_KINDS",
     "specimen_kinds",
     "specimen_spec",
@@ -141,17 +142,23 @@ class ExperimentResiduals:
         return (self.observed - self.predict(theta)) / self.sd
 
 
+#: The mirror model's free parameters: the paper's 11 less those :data:`bayestissue.paper.MIRROR_TIES` ties.
+MIRROR_NAMES = tuple(n for n in param_names(3) if n not in dict(MIRROR_TIES))
+#: Column of each of the paper's 11 parameters in a mirror-model vector.
+_MIRROR_COLUMNS = [MIRROR_NAMES.index(dict(MIRROR_TIES).get(n, n)) for n in param_names(3)]
+
+
 class MirrorResiduals:
-    """:class:`ExperimentResiduals` as a function of the mirror model's 8 parameters (``mu, kappa``, family 1,
-    family 2; family 3 takes family 2's law, :data:`bayestissue.paper.MIRROR_TIES`): ``r(theta8)``."""
+    """:class:`ExperimentResiduals` as a function of the mirror model's parameters (:data:`MIRROR_NAMES`: ``mu,
+    kappa``, family 1, family 2; family 3 takes family 2's law): ``r(theta8)``."""
 
     def __init__(self, residuals: ExperimentResiduals):
         self.residuals = residuals
 
     @staticmethod
     def expand(theta) -> np.ndarray:
-        t = np.asarray(theta, dtype=float)
-        return np.concatenate([t, t[..., 5:8]], axis=-1)
+        """Mirror-model parameters ``(..., 8)`` -> the paper's 11, tied ones copied from their targets."""
+        return np.asarray(theta, dtype=float)[..., _MIRROR_COLUMNS]
 
     def predict(self, theta) -> np.ndarray:
         return self.residuals.predict(self.expand(theta))

@@ -3,7 +3,7 @@
 import matplotlib.pyplot as plt
 
 from bayestissue.plotting.controls import plot_controls
-from bayestissue.workflows.controls import CAUSES, confusion
+from bayestissue.workflows.controls import confusion, verdict_text
 
 
 def _record(name, planted, q, different, named, kind):
@@ -20,7 +20,7 @@ def test_counts_and_threshold_are_drawn():
     ]
     table = confusion(records)
     assert table["none"]["named"] == 1 and table["stiff"]["named"] == 2  # planted cause among the named: both
-    fig = plot_controls(records, table, q_threshold=26.1, causes=CAUSES)
+    fig = plot_controls(records, table, q_threshold=26.1, label=lambda key: verdict_text(key, sep="\n"))
     a, b = fig.axes[:2]
     assert [ln.get_xdata()[0] for ln in a.lines if ln.get_linestyle() == "--"] == [26.1]
     cells = sorted(t.get_text() for t in b.texts)

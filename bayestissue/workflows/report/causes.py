@@ -31,7 +31,7 @@ def causes_section(B: dict, names, t: dict, bc, w, t2_gamma=None, t2_ls=None) ->
         "beta2 profile (95 % CI, 1/s) | optimum restarts (improvements) |"
     )
     w("|---|---|---|---|---|---|---|")
-    profiled, ident_rates = [], []
+    profiled, ident_rates, capped = [], [], []
     for i, f in enumerate(R["factors"]):
         pr = R["profiles"].get(str(float(f))) or R["profiles"].get(str(f)) or {}
         cells = [num(R["se_log"][p][i], ".2g") for p in VISC]
@@ -39,6 +39,8 @@ def causes_section(B: dict, names, t: dict, bc, w, t2_gamma=None, t2_ls=None) ->
             profiled.append(f)
             if pr.get("beta2") == "identifiable":
                 ident_rates.append(f)
+            if not pr.get("converged", True):
+                capped.append(num(f, "g"))
 
         def ci(key, pr=pr):
             c = pr.get(key)
@@ -60,7 +62,6 @@ def causes_section(B: dict, names, t: dict, bc, w, t2_gamma=None, t2_ls=None) ->
             )
             + " |"
         )
-    capped = [num(f, "g") for f in profiled if not (R["profiles"].get(str(float(f))) or {}).get("converged", True)]
     w(
         "\nProfiles relative to the best optimum of each simulated data set (the improvements are in chi2). "
         + (

@@ -5,19 +5,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from bayestissue.workflows.controls import CAUSES
+from bayestissue.workflows.controls import CAUSES, verdict_text
 from bayestissue.workflows.report.text import num
 
 __all__ = ["controls_section"]
-
-
-def _verdict_text(key: str) -> str:
-    if key == "none":
-        return "no difference"
-    named, _, kind = key.partition(" (")
-    if named == "unexplained":
-        return "unexplained"
-    return " + ".join(CAUSES[int(k)] for k in named.split("+")) + f" ({kind.rstrip(')')})"
 
 
 def controls_section(out: Path, w, replica_q: float | None = None) -> dict | None:
@@ -58,7 +49,7 @@ def controls_section(out: Path, w, replica_q: float | None = None) -> dict | Non
     strengths = {s["name"]: s["strength"] for s in S["scenarios"]}
     for name, row in S["table"].items():
         qs = [r["verdict"]["tension"]["Q"] for r in S["records"] if r["scenario"] == name]
-        verdicts = "; ".join(f"{_verdict_text(k)}: {v}" for k, v in row["verdicts"].items())
+        verdicts = "; ".join(f"{verdict_text(k)}: {v}" for k, v in row["verdicts"].items())
         planted = " + ".join(CAUSES[k] for k in row["planted"]) or "none"
         w(
             f"| {name} | {planted} | {strengths[name]} | {num(min(qs), '.1f')}-{num(max(qs), '.1f')} | {verdicts} | "
@@ -80,7 +71,7 @@ def controls_section(out: Path, w, replica_q: float | None = None) -> dict | Non
     if indist:
         w(
             "- **Indistinguishable**: "
-            + ", ".join(_verdict_text(k) for k in indist)
+            + ", ".join(verdict_text(k) for k in indist)
             + ". A fibre half-angle alpha changes the families' stiffness along the load by about cos^4 alpha, "
             "which a stiffness scale on the T2 specimen mimics; in a uniaxial test along x the two differ only "
             "through the matrix (scaled by one, not the other) and the lateral contraction, which a small change "

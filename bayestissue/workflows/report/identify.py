@@ -80,6 +80,7 @@ def _mirror_section(out: Path, w) -> None:
     )
     if full and mirror:
         gap = full[2] - mirror[2]
+        p_lr = float(chi2_dist.sf(max(2 * gap, 0.0), 3))
         w(
             "- The T1 replica has beta2 = 0.00056 != beta3 = 0.00043, which the mirror model cannot represent. By the "
             f"numbers: its draws reach a log-likelihood of {num(mirror[0], '.1f')} to {num(mirror[1], '.1f')} (5-95 %, "
@@ -87,9 +88,9 @@ def _mirror_section(out: Path, w) -> None:
             f"{num(full[2], '.1f')}) for the 11-parameter model's draws: the best draws differ by {num(gap, '.2f')} in "
             "log-likelihood, "
             + f"a likelihood-ratio statistic of {num(2 * gap, '.2f')} on the 3 parameters the tie removes (p = "
-            f"{num(chi2_dist.sf(max(2 * gap, 0.0), 3), '.2g')}): "
+            f"{num(p_lr, '.2g')}): "
             + ("the data cannot tell the two models apart, so the misspecification is real but invisible here. "
-               if chi2_dist.sf(max(2 * gap, 0.0), 3) > 0.05 else "the data detect it. ")
+               if p_lr > 0.05 else "the data detect it. ")
             + "Setting family 3 to family 2's generating values instead gives a far worse fit "
             "(`calibration_recovery.md`): the tie at the generating point is not the model's best approximation. "
             "T2's generating values are mirror-symmetric."
@@ -101,11 +102,10 @@ def _loglik_range(path: Path):
     """(5 %, 95 %, max) of the total log-likelihood of a results file's draws, or None if it is absent."""
     if not Path(path).exists():
         return None
+    from bayestissue.inference.summary import draw_log_likelihood
     from bayestissue.io.results import read_inference_data
 
-    idata = read_inference_data(path)
-    total = sum(da.sum([d for d in da.dims if d not in ("chain", "draw")]) for da in idata.log_likelihood.values())
-    ll = np.asarray(total, dtype=float).ravel()
+    ll = draw_log_likelihood(read_inference_data(path))
     return (*np.percentile(ll, [5, 95]), float(ll.max()))
 
 
