@@ -58,7 +58,12 @@ def register(subparsers) -> None:
     b.add_argument("lines")
     b.add_argument("--n-boot", type=int, default=300)
     b.add_argument("--split", choices=("paper", "length"), default="paper")
-    b.add_argument("--directions", choices=("watson", "rose"), default="watson")
+    b.add_argument(
+        "--directions",
+        choices=("watson", "watson+uniform", "rose"),
+        default="watson",
+        help="watson+uniform: with a uniform background component (for lines traced from packed cells)",
+    )
     b.add_argument("--rose-n", type=int, default=15, help="n for --directions rose")
     b.add_argument(
         "--fractions",

@@ -101,9 +101,9 @@ def plot_overlay(
     return fig
 
 
-def plot_validation(main, sep):
+def plot_validation(main, old):
     """The six-panel validation figure of :func:`~bayestissue.stereology.micrographs.validation.run_chain` results
-    (default phantom ``main``, separable phantom ``sep`` or None)."""
+    (default phantom ``main``; ``old``, the interpenetrating phantom shown for contrast, or None)."""
     fig = plt.figure(figsize=(14, 9.5), constrained_layout=True)
     gs = fig.add_gridspec(2, 3)
     # (a) volume fractions
@@ -129,7 +129,7 @@ def plot_validation(main, sep):
     ax.legend(fontsize=_LEGEND)
     # (b) L_V
     ax = fig.add_subplot(gs[0, 1])
-    for i, r in enumerate((main, sep)):
+    for i, r in enumerate((main, old)):
         if r is None:
             continue
         lo, hi = np.quantile(r["lv_boot"], [0.025, 0.975])
@@ -138,14 +138,14 @@ def plot_validation(main, sep):
         ax.plot(i, r["lv_true"], "k_", ms=30, mew=2, label="truth" if i == 0 else None)
         ax.fill_between([i - 0.25, i + 0.25], 0.85 * r["lv_true"], 1.15 * r["lv_true"],
                         color="0.85", label="truth +- 15 %" if i == 0 else None)  # fmt: skip
-    ax.set_xticks([0, 1], ["default\n58.9 % SMC", "separable\n42 % SMC"])
+    ax.set_xticks([0, 1], ["default\n(packed)", "old\n(overlapping)"])
     ax.set_ylabel("L_V (um^-2)")
     ax.set_title("(b) length density")
-    ax.set_xlim(-0.6, 2.4)  # room on the right for the legend, clear of the error bars
-    ax.legend(fontsize=_LEGEND, loc="upper right")
+    ax.set_xlim(-0.6, 1.6)
+    ax.legend(fontsize=_LEGEND, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, frameon=False)
     # (c) registration error
     ax = fig.add_subplot(gs[0, 2])
-    for r, name, c in ((main, "default", "C0"), (sep, "separable", "C2")):
+    for r, name, c in ((main, "default", "C0"), (old, "old phantom", "C2")):
         if r is not None:
             ax.plot(r["reg_err_px"], "o-", color=c, label=name)
     ax.axhline(1.0, color="k", ls="--", lw=1, label="1 px")
@@ -154,7 +154,7 @@ def plot_validation(main, sep):
     ax.set_title("(c) registration error\n(template of 3 sections)")
     ax.legend(fontsize=_LEGEND)
     # (d, e) directions: Lambert equal-area of traced pieces, estimated axes, truth
-    for k, (r, name) in enumerate(((main, "default"), (sep, "separable"))):
+    for k, (r, name) in enumerate(((main, "default"), (old, "old"))):
         if r is None:
             continue
         ax = fig.add_subplot(gs[1, k])
@@ -182,13 +182,26 @@ def plot_validation(main, sep):
     # (f) V_V over SURS repeats vs predicted CE
     ax = fig.add_subplot(gs[1, 2])
     vv = main["vv_surs"]
-    ax.hist(vv, bins=20, color="C0", alpha=0.6, label="V_V(SMC) over SURS starts")
-    s_smc = main["summary"]["smc"]
-    for key, c in (("CE_m1", "C1"), ("CE_q_hat", "C3"), ("CE_classic", "C4")):
-        sd = s_smc[key] * s_smc["V_V"]
+    bins = np.histogram_bin_edges(np.concatenate([vv, main["vv_grid_only"]]), bins=20)
+    ax.hist(vv, bins=bins, color="C0", alpha=0.6, label="V_V(SMC) over SURS starts + grid offsets")
+    ax.hist(main["vv_grid_only"], bins=bins, histtype="step", color="k", lw=1.2,
+            label="grid offsets alone (sections fixed)")  # fmt: skip
+    s_smc, s_prof = main["summary"]["smc"], main["summary_profiles"]["smc"]
+    top = ax.get_ylim()[1]
+    bars = [(vv.std(ddof=1), "C0", "+-1 sd measured (SURS starts + offsets)")]
+    for key, s_, c, text in (("CE_q_hat", s_smc, "C3", "+-1 CE_q_hat, 1 profile / section"),
+                             ("CE_q_hat", s_prof, "C1", "+-1 CE_q_hat, measured profiles"),
+                             ("CE_classic", s_smc, "C4", "+-1 CE_classic")):  # fmt: skip
+        sd = s_[key] * s_smc["V_V"]
         if np.isfinite(sd):
-            ax.axvspan(vv.mean() - sd, vv.mean() + sd, color=c, alpha=0.15, label=f"+-1 {key}")
-    ax.axvline(main["vf_true"]["smc_tissue"], color="k", lw=2, label="truth")
+            bars.append((sd, c, text))
+    for j, (sd, c, text) in enumerate(bars):  # one bar per prediction above the histograms, centred on the mean
+        ax.errorbar(vv.mean(), top * (1.08 + 0.09 * j), xerr=sd, fmt="o", ms=3, color=c, capsize=4, lw=2, label=text)
+    ax.set_ylim(0, top * (1.15 + 0.09 * len(bars)))
+    truth = main["vf_true"]["smc_tissue"]
+    ax.axvline(truth, color="k", lw=2, label="truth")
+    lo, hi = ax.get_xlim()
+    ax.set_xlim(min(lo, truth - 0.005), max(hi, truth + 0.005))  # the truth line clear of the frame
     ax.set_xlabel("V_V(SMC, tissue)")
     ax.set_ylabel("SURS starts")
     ax.set_title("(f) SURS spread vs predicted CE\n(one sample)")

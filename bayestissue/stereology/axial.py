@@ -237,14 +237,17 @@ class WatsonMixture:
     Parameters
     ----------
     axes : (k, 3) unit axes; kappas : (k,) concentrations >= 0; weights : (k,) mixing weights
-        summing to 1.
+        summing to 1 - ``background``.
     log_likelihood : weighted log-likelihood of the fitted data (nan when not fitted).
+    background : weight of a uniform component, density 1 / (4 pi) (the density of axes in no family: fragments
+        traced across sections, say); 0 by default.
     """
 
     axes: np.ndarray
     kappas: np.ndarray
     weights: np.ndarray
     log_likelihood: float = float("nan")
+    background: float = 0.0
 
     def __post_init__(self):
         axes = _check_mu(np.atleast_2d(self.axes))
@@ -253,8 +256,11 @@ class WatsonMixture:
         w = np.asarray(self.weights, dtype=float)
         if kap.shape != (k,) or np.any(~np.isfinite(kap)) or np.any(kap < 0):
             raise ValidationError("kappas", kap.tolist(), f"{k} concentrations >= 0")
-        if w.shape != (k,) or np.any(w < 0) or abs(w.sum() - 1) > 1e-8:
-            raise ValidationError("weights", w.tolist(), f"{k} weights >= 0 summing to 1")
+        bg = float(self.background)
+        if not 0.0 <= bg < 1.0:
+            raise ValidationError("background", bg, "a weight in [0, 1)")
+        if w.shape != (k,) or np.any(w < 0) or abs(w.sum() + bg - 1) > 1e-8:
+            raise ValidationError("weights", w.tolist(), f"{k} weights >= 0 summing to 1 - background = {1 - bg}")
         object.__setattr__(self, "axes", axes)
         object.__setattr__(self, "kappas", kap)
         object.__setattr__(self, "weights", w)
@@ -264,9 +270,17 @@ class WatsonMixture:
         t = x @ self.axes.T  # (n, k)
         return self.kappas * t**2 - watson_log_normaliser(self.kappas) + np.log(self.weights)
 
+    def _log_all(self, x) -> np.ndarray:
+        """Log components with the uniform background as a last column when it has weight."""
+        lc = self._log_components(x)
+        if self.background > 0:
+            bg = np.full(lc.shape[:-1] + (1,), np.log(self.background / (4 * np.pi)))
+            lc = np.concatenate([lc, bg], axis=-1)
+        return lc
+
     def logpdf(self, x) -> np.ndarray:
         """Log density of the mixture at unit vectors ``x`` (n, 3)."""
-        return logsumexp(self._log_components(x), axis=-1)
+        return logsumexp(self._log_all(x), axis=-1)
 
     def pdf(self, x) -> np.ndarray:
         """Density of the mixture (integrates to 1 over the sphere)."""
@@ -275,39 +289,51 @@ class WatsonMixture:
     def sample(self, n: int, *, rng=None) -> tuple[np.ndarray, np.ndarray]:
         """Draw ``n`` axes; returns (n, 3) unit vectors and (n,) component labels."""
         rng = np.random.default_rng(rng)
-        labels = rng.choice(len(self.weights), size=int(n), p=self.weights)
+        k = len(self.weights)
+        p = np.append(self.weights, self.background)
+        labels = rng.choice(k + 1, size=int(n), p=p / p.sum())
         x = np.empty((int(n), 3))
-        for j in range(len(self.weights)):
+        for j in range(k + 1):
             idx = np.flatnonzero(labels == j)
-            if idx.size:
+            if idx.size and j < k:
                 x[idx] = sample_watson(idx.size, self.axes[j], self.kappas[j], rng=rng)
+            elif idx.size:  # the uniform background (label k)
+                u = rng.normal(size=(idx.size, 3))
+                x[idx] = u / np.linalg.norm(u, axis=1, keepdims=True)
         return x, labels
 
     def responsibilities(self, x) -> np.ndarray:
-        """(n, k) posterior component probabilities of each axis."""
-        lc = self._log_components(x)
-        return np.exp(lc - logsumexp(lc, axis=-1, keepdims=True))
+        """(n, k) posterior probabilities of each axis' Watson components (the background takes 1 - the row
+        sum)."""
+        lc = self._log_all(x)
+        return np.exp(lc - logsumexp(lc, axis=-1, keepdims=True))[..., : len(self.weights)]
 
 
-def _em(x, w, axes, kappas, weights, max_iter, tol):
+def _em(x, w, axes, kappas, weights, max_iter, tol, background=False):
+    """EM from the given start; with ``background`` a uniform component (kappa pinned at 0) takes part, starting
+    at the weight of one component."""
     ll_old = -np.inf
     k = len(weights)
+    bg = 1.0 / (k + 1) if background else 0.0
+    weights = weights / weights.sum() * (1.0 - bg)
     for _ in range(max_iter):
-        mix = WatsonMixture(axes, kappas, weights / weights.sum())
-        lc = mix._log_components(x)
+        mix = WatsonMixture(axes, kappas, weights, background=bg)
+        lc = mix._log_all(x)
         lse = logsumexp(lc, axis=-1)
         ll = float(np.sum(w * lse))
-        r = np.exp(lc - lse[:, None]) * w[:, None]  # (n, k) weighted responsibilities
+        r = np.exp(lc - lse[:, None]) * w[:, None]  # (n, k [+ 1]) weighted responsibilities
         nk = r.sum(axis=0)
-        weights = np.maximum(nk / w.sum(), 1e-12)
-        S = np.einsum("ik,ij,il->kjl", r, x, x) / np.maximum(nk, 1e-300)[:, None, None]
+        share = np.maximum(nk / w.sum(), 1e-12)
+        share /= share.sum()
+        weights, bg = share[:k], (float(share[k]) if background else 0.0)
+        S = np.einsum("ik,ij,il->kjl", r[:, :k], x, x) / np.maximum(nk[:k], 1e-300)[:, None, None]
         lam, vec = np.linalg.eigh(S)
         axes = vec[:, :, -1]
         kappas = np.array([_kappa_from_t2(lam[j, -1]) for j in range(k)])
         if abs(ll - ll_old) <= tol * (abs(ll) + 1.0):
             break
         ll_old = ll
-    return WatsonMixture(axes, kappas, weights / weights.sum(), ll)
+    return WatsonMixture(axes, kappas, weights, ll, background=bg)
 
 
 def fit_watson_mixture(
@@ -319,6 +345,7 @@ def fit_watson_mixture(
     n_init: int = 5,
     max_iter: int = 300,
     tol: float = 1e-8,
+    background: bool = False,
     rng=None,
 ) -> WatsonMixture:
     r"""Fit a mixture of bipolar Watson distributions by EM (Sra & Karp 2013), with length weights.
@@ -338,11 +365,15 @@ def fit_watson_mixture(
     n_init : number of random starts (data axes spread by farthest-point seeding), in addition to
         ``init_axes``; the best likelihood wins. 0 is allowed with ``init_axes`` (fast bootstrap
         refits).
+    background : add a uniform component (a Watson with :math:`\kappa = 0`, pinned) whose weight EM estimates
+        with the others: axes that belong to no family (pieces traced through packed cells, which link fragments
+        across sections in every direction) go there instead of pulling a component away from its family (the
+        noise component of Banfield & Raftery 1993, Biometrics 49:803).
     rng : seed or Generator.
 
     Returns
     -------
-    WatsonMixture with components sorted by decreasing weight.
+    WatsonMixture with components sorted by decreasing weight (and the background weight).
     """
     x = _directions(directions)
     w = _weights(weights, len(x))
@@ -366,9 +397,9 @@ def fit_watson_mixture(
         starts.append(x[idx])
     best = None
     for a0 in starts:
-        fit = _em(x, w, a0, np.full(k, 5.0), np.full(k, 1.0 / k), max_iter, tol)
+        fit = _em(x, w, a0, np.full(k, 5.0), np.full(k, 1.0 / k), max_iter, tol, background)
         if best is None or fit.log_likelihood > best.log_likelihood:
             best = fit
     order = np.argsort(-best.weights, kind="stable")
     axes = best.axes[order] * np.where(best.axes[order, 2:3] < 0, -1.0, 1.0)
-    return WatsonMixture(axes, best.kappas[order], best.weights[order], best.log_likelihood)
+    return WatsonMixture(axes, best.kappas[order], best.weights[order], best.log_likelihood, best.background)

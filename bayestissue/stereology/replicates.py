@@ -50,7 +50,7 @@ __all__ = [
     "stereology_replicates",
 ]
 
-_METHODS = ("watson", "rose")
+_METHODS = ("watson", "watson+uniform", "rose")
 
 
 def fibre_fraction_split(phi_smc, *, method: str = "paper", shares=None) -> np.ndarray:
@@ -88,6 +88,9 @@ def fit_fibre_directions(
     """Three fibre axes and their length shares from (a subset of) a line system.
 
     ``method="watson"``: three-component Watson mixture with length weights (axes, weights);
+    ``method="watson+uniform"``: the same with a uniform background component
+    (:func:`~bayestissue.stereology.axial.fit_watson_mixture`, ``background=True``; shares are the three families'
+    weights normalised over the three: the background's length belongs to no family);
     ``method="rose"``: the top three directions of the n x n equal-area rose (principal axes of the
     merged top cells, shares = their lengths normalised over the three).
 
@@ -97,12 +100,13 @@ def fit_fibre_directions(
         raise ValidationError("method", method, f"one of {list(_METHODS)}")
     d = lines.directions if index is None else lines.directions[index]
     w = lines.lengths if index is None else lines.lengths[index]
-    if method == "watson":
+    if method.startswith("watson"):
+        bg = method == "watson+uniform"
         if init_axes is None:
-            mix = fit_watson_mixture(d, 3, weights=w, n_init=5, rng=rng)
+            mix = fit_watson_mixture(d, 3, weights=w, n_init=5, background=bg, rng=rng)
         else:
-            mix = fit_watson_mixture(d, 3, weights=w, init_axes=init_axes, n_init=0, rng=rng)
-        return mix.axes, mix.weights
+            mix = fit_watson_mixture(d, 3, weights=w, init_axes=init_axes, n_init=0, background=bg, rng=rng)
+        return mix.axes, mix.weights / mix.weights.sum()
     top = preferential_directions(rose_of_directions(d, w, n=n), k=3)
     if len(top) < 3:
         raise ValidationError("line system", f"{len(top)} occupied directions", ">= 3 distinct directions")

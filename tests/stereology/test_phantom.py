@@ -145,6 +145,9 @@ def test_bad_options_are_named(kwargs, match):
 
 
 def test_unreachable_density_is_reported():
-    opts = PhantomOptions(extent_um=(20.0, 40.0, 40.0), max_overlap=0.0, max_attempts=300)
+    opts = PhantomOptions(extent_um=(20.0, 40.0, 40.0), packing="overlap", max_overlap=0.0, max_attempts=300)
     with pytest.raises(ValidationError, match="smc_fraction: expected a density reachable"):
         make_phantom(opts, rng=0)
+    # the tessellation cannot fill more than the tissue its seams leave
+    with pytest.raises(ValidationError, match="smc_fraction: expected a fraction the tessellation reaches"):
+        make_phantom(PhantomOptions(extent_um=(20.0, 40.0, 40.0), smc_fraction=0.97), rng=0)

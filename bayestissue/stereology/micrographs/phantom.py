@@ -2,11 +2,13 @@
 
 The phantom is a voxel volume of three components, coded ``0 = cavity`` (haemocoelic sinus), ``1 =
 ECM`` (collagen matrix) and ``2 = SMC`` (smooth muscle cells), plus a cell-id volume. Cells are
-spindle-shaped prolate ellipsoids (Kochova & Tonar 2014: about 72 um long with 3 um semi-axes) whose
-axes are drawn from a mixture of three Watson distributions; cavities are the high part of a smooth
-random field carved out of the space the cells leave free. The truth (voxel volume fractions, every
-cell's axis segment clipped to the volume, its length) is returned with the volume, so that every
-estimate of the pipeline can be compared with what it estimates.
+elongated (Kochova & Tonar 2014: about 72 um long with 3 um semi-axes), their axes drawn from a mixture
+of three Watson distributions; by default they tessellate the tissue without interpenetrating
+(:mod:`~bayestissue.stereology.micrographs.packing`), the older ``packing="overlap"`` places rigid
+prolate spindles that may interpenetrate. Cavities are the high part of a smooth random field. The
+truth (voxel volume fractions, every cell's axis segment clipped to the volume, its length) is
+returned with the volume, so that every estimate of the pipeline can be compared with what it
+estimates.
 
 Array order is ``(z, y, x)``; vectors and points are ``(x, y, z)`` in micrometres, the origin at the
 corner of voxel ``(0, 0, 0)`` (voxel centres at ``(i + 1/2) * voxel_um``).
@@ -63,15 +65,12 @@ class PhantomOptions:
     weights : mixture weights of the three axes (summing to 1).
     kappa : Watson concentration of every component (> 0: bipolar, axes concentrated about the
         mode).
-    packing : ``"tessellation"``: cells fill the tissue without interpenetrating, each axis inside its own voxels
-        (:mod:`~bayestissue.stereology.micrographs.packing`); ``"overlap"`` (still the default, issue 21 open):
-        random sequential adsorption of rigid spindles that may interpenetrate by up to ``max_overlap`` (18 % of
-        the axis length runs inside other cells at 58.9 % SMC, 80 x 120 x 120 um, seed 1). On the tessellated
-        phantom the tracer over-counts L_V (true planes, seed 1: +67 % with its defaults, +28 % without the volume
-        rule, +0.4 % with one piece per cell and no volume rule), which has to be resolved before it becomes the
-        default.
-    min_axis_gap_um : tessellation: the least distance between two cell axes (so that every axis voxel is its
-        own cell's and a seam fits between neighbours).
+    packing : ``"tessellation"`` (default): cells fill the tissue without interpenetrating, each axis inside its own
+        voxels (:mod:`~bayestissue.stereology.micrographs.packing`); ``"overlap"``: the earlier phantom, random
+        sequential adsorption of rigid spindles that may interpenetrate by up to ``max_overlap`` (about 20 % of the
+        axis length then runs inside other cells at 58.9 % SMC, where no image shows it; kept for contrast).
+    min_axis_gap_um : tessellation: the least distance between two cell axes (>= 2 voxels, so that every axis
+        voxel is its own cell's).
     max_overlap : overlap packing: largest fraction of a new cell's voxels allowed to lie in earlier cells or in
         their ``gap_um`` neighbourhood (random sequential adsorption with a tolerance).
     max_in_cavity : largest fraction of a candidate cell inside the sinuses (the sinuses cut the
@@ -79,8 +78,9 @@ class PhantomOptions:
     gap_um : collagen sheath kept around earlier cells when testing overlap (0 allows touching
         cells).
     max_attempts : candidates tried before giving up (default: half the number of voxels).
-    seams : free a one-voxel collagen seam (endomysium) wherever two cells touch, so that touching
-        cells stay distinguishable; cells are added until the SMC fraction after the seams is met.
+    seams : overlap packing: free a one-voxel collagen seam (endomysium) wherever two cells touch, so that
+        touching cells stay distinguishable; cells are added until the SMC fraction after the seams is met (the
+        tessellation always cuts seams).
     cavity_scale_um : (z, y, x) correlation lengths (Gaussian filter sigmas) of the random field
         the cavities are cut from. The default makes the sinuses channels along z, persistent
         from section to section when cut along z, which is what registration relies on (with
@@ -96,8 +96,8 @@ class PhantomOptions:
     axes: tuple = _PAPER_AXES
     weights: tuple[float, float, float] = (1 / 3, 1 / 3, 1 / 3)
     kappa: float = 20.0
-    packing: str = "overlap"
-    min_axis_gap_um: float = 2.5
+    packing: str = "tessellation"
+    min_axis_gap_um: float = 2.0
     max_overlap: float = 0.25
     max_in_cavity: float = 0.5
     gap_um: float = 0.0
@@ -381,7 +381,10 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
 
     1. Cavities (haemocoelic sinuses) are the voxels with the highest values of a Gaussian-filtered
        white-noise field (sd ``cavity_scale_um``), exactly ``cavity_fraction`` of the block.
-    2. Cells are placed by random sequential adsorption: a candidate (centre uniform in the block
+    2. ``packing="tessellation"`` (default): axes placed at least ``min_axis_gap_um`` apart until their length in
+       tissue is what the nominal spindles need for the SMC fraction, the tissue tessellated among them
+       (:mod:`~bayestissue.stereology.micrographs.packing`). ``packing="overlap"``: cells are placed by random
+       sequential adsorption: a candidate (centre uniform in the block
        dilated by half a cell length, axis from the Watson mixture) is accepted when at most
        ``max_overlap`` of its voxels fall in earlier cells dilated by ``gap_um``; its voxels not
        yet taken get its id. Sinuses cut through the cells (cell voxels there stay cavity).
@@ -522,7 +525,7 @@ def _phantom(o, cavity, cell_ids, segments, directions, comps, seed) -> TissuePh
 def _tessellated_cells(o, cavity, axes, weights, rng):
     """Axes placed without crossing, then the tissue tessellated among them (:mod:`.packing`); more axes are added
     until the SMC fraction is reachable. Returns cell ids, clipped segments, directions and mixture components."""
-    from bayestissue.stereology.micrographs.packing import place_axes, tessellate
+    from bayestissue.stereology.micrographs.packing import AxisIndex, place_axes, tessellate
 
     shape, v = cavity.shape, o.voxel_um
     upper = np.array(shape[::-1], dtype=float) * v
@@ -546,24 +549,47 @@ def _tessellated_cells(o, cavity, axes, weights, rng):
         return float(cavity[ijk[:, 2], ijk[:, 1], ijk[:, 0]].mean())
 
     tissue = ~cavity
-    cell_volume = 4.0 / 3.0 * np.pi * a * b * b
-    n = max(4, int(np.ceil(o.smc_fraction * tissue.sum() * v**3 / cell_volume)))
-    placed = None
-    for _ in range(12):
-        placed = place_axes(n, draw, upper, a, o.min_axis_gap_um, in_cavity, o.max_in_cavity, rng, start=placed)
-        clipped = [clip_segment_to_box(p, p + d, upper) for p, d in zip(placed[0], placed[1], strict=True)]
-        kept = [k for k, seg in enumerate(clipped) if seg is not None]
-        starts, vectors, comps = placed[0][kept], placed[1][kept], placed[2][kept]
-        ids, _, reached = tessellate(starts, vectors, b, tissue, v, o.smc_fraction)
-        if ids is not None:
-            segments = [clipped[k] for k in kept]
-            directions = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
-            return _renumber(ids, segments, directions, comps)
-        n = max(4, int(0.25 * len(placed[0])))
-    raise ValidationError(
-        "smc_fraction", o.smc_fraction, f"a fraction the tessellation reaches (reached {reached:.3f})",
-        "lower smc_fraction or min_axis_gap_um",
-    )  # fmt: skip
+    # axes are added until their length in tissue is what spindles of the nominal shape need for the SMC fraction:
+    # mean cross-section of a prolate spindle along its axis V / 2a = 2 pi b^2 / 3
+    length_needed = o.smc_fraction * tissue.sum() * v**3 / (2.0 * np.pi * b * b / 3.0)
+    dilated = np.prod(upper + 2 * a) / np.prod(upper)  # centres fill the block dilated by a half length
+    per_axis = 2 * a / dilated  # expected length of one axis in the block, until measured
+    index, length = AxisIndex(max(2 * o.min_axis_gap_um, 4 * v)), 0.0
+    for _ in range(40):  # rounds of half the estimated deficit, then the rest: overshoot <= a few axes
+        n = max(4, int(np.ceil(0.5 * (length_needed - length) / per_axis)))
+        done = place_axes(index, n, draw, upper, a, o.min_axis_gap_um, in_cavity, o.max_in_cavity, rng)
+        length += _tissue_length(index.starts[index.n - done :], index.vectors[index.n - done :], tissue, v)
+        if length >= length_needed or done < n:  # enough, or random packing jammed
+            break
+        per_axis = length / index.n
+    placed = (index.starts, index.vectors, np.array(index.components, dtype=int))
+    clipped = [clip_segment_to_box(p, p + d, upper) for p, d in zip(placed[0], placed[1], strict=True)]
+    kept = [k for k, seg in enumerate(clipped) if seg is not None]
+    starts, vectors, comps = placed[0][kept], placed[1][kept], placed[2][kept]
+    ids, _, reached = tessellate(starts, vectors, b, tissue, v, o.smc_fraction)
+    if ids is None:
+        raise ValidationError(
+            "smc_fraction", o.smc_fraction, f"a fraction the tessellation reaches (reached {reached:.4f})",
+            "lower smc_fraction or min_axis_gap_um",
+        )  # fmt: skip
+    segments = [clipped[k] for k in kept]
+    directions = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+    return _renumber(ids, segments, directions, comps)
+
+
+def _tissue_length(starts, vectors, tissue, voxel, step=0.5) -> float:
+    """Total length (um) of the segments ``starts + t vectors`` inside the block and in tissue, sampled every
+    ``step`` um."""
+    shape = np.array(tissue.shape[::-1])
+    total = 0.0
+    for p0, d in zip(starts, vectors, strict=True):
+        L = float(np.linalg.norm(d))
+        m = max(2, int(np.ceil(L / step)))
+        pts = p0 + ((np.arange(m) + 0.5) / m)[:, None] * d
+        ijk = np.floor(pts / voxel).astype(int)
+        inside = np.all((ijk >= 0) & (ijk < shape), axis=1)
+        total += L / m * np.count_nonzero(tissue[ijk[inside, 2], ijk[inside, 1], ijk[inside, 0]])
+    return total
 
 
 def _renumber(ids, segments, directions, comps):

@@ -112,6 +112,7 @@ def analyse_micrographs(
     )
     step(1)
     say("tracing cells")
-    traced = trace_cells(seg.labels == SMC, spacing_um=(thickness_um, pixel_um, pixel_um), valid=reg.valid, rng=rng)
+    cells = seg.labels == SMC if seg.seams is None else (seg.labels == SMC) & ~seg.seams  # cut at the seams
+    traced = trace_cells(cells, spacing_um=(thickness_um, pixel_um, pixel_um), valid=reg.valid, rng=rng)
     step(1)
     return MicrographAnalysis(reg, seg, sens, grid, traced, pixel_um, thickness_um)

@@ -9,8 +9,10 @@ length an isolated in-plane cell loses when traced from sections.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
+from scipy import ndimage
 
 from bayestissue.stereology.axial import axial_angle, fit_watson_mixture
 from bayestissue.stereology.micrographs import analyse_micrographs
@@ -24,7 +26,12 @@ from bayestissue.stereology.replicates import direction_bootstrap, fraction_repl
 from bayestissue.stereology.sections import surs_indices
 from bayestissue.stereology.uncertainty import align_axes
 
-__all__ = ["grazing_loss", "run_chain", "seed_row"]
+__all__ = ["DIRECTIONS", "grazing_loss", "phantom_geometry", "run_chain", "seed_row", "targets_met"]
+
+#: How the three directions are estimated from traced pieces: a Watson mixture with a uniform background (pieces
+#: traced across packed cells' fragments belong to no family; without it a component goes to them and two families
+#: 40 degrees apart merge: errors of 87-89 degrees on seeds 1 and 5 of the default phantom, 80 x 120 x 120 um).
+DIRECTIONS = "watson+uniform"
 
 
 def _truth_in_field(phantom, stack, valid):
@@ -98,12 +105,24 @@ def run_chain(options, *, seed, n_boot, n_surs, period=2, grid_um=8.0):
                          valid=reg.valid, rng=rng)  # fmt: skip
         vv.append(g.volume_fractions()["smc_tissue"])
     out["vv_surs"] = np.array(vv)
+    # the same spread with the sampled sections fixed: the grid offsets alone (the point-counting "nugget")
+    secs = res.grid.section
+    out["vv_grid_only"] = np.array([
+        count_points(res.segmentation.labels, spacing_px=grid_um, sections=secs, valid=reg.valid, rng=rng)
+        .volume_fractions()["smc_tissue"]
+        for _ in range(n_surs)
+    ])  # fmt: skip
+    # the CE predictors again with the SMC profiles the sampled sections show (the nugget's n, Gundersen et al.
+    # 1999 eq. 13; the pipeline assumes one profile per section)
+    n_prof = [ndimage.label((res.segmentation.labels[k] == SMC) & reg.valid)[1] for k in secs]
+    out["smc_profiles"] = np.array(n_prof)
+    out["summary_profiles"] = replace(pc, profiles_per_section=float(np.mean(n_prof))).summary()
     # lines: L_V and its cell bootstrap; directions with cones
     out["lv"] = res.traced.length_density()
     out["lv_boot"] = _lv_bootstrap(res.traced, n_boot, rng)
     lines = res.line_system()
     t0 = time.perf_counter()
-    out["dirs"] = direction_bootstrap(lines, method="watson", n_boot=min(n_boot, 50), rng=rng)
+    out["dirs"] = direction_bootstrap(lines, method=DIRECTIONS, n_boot=min(n_boot, 50), rng=rng)
     t["directions_s"] = time.perf_counter() - t0
     true_axes = np.array([stack_frame("z") @ np.asarray(a) for a in options.axes])
     al, _ = align_axes(out["dirs"]["axes"], true_axes)
@@ -112,10 +131,23 @@ def run_chain(options, *, seed, n_boot, n_surs, period=2, grid_um=8.0):
     return out
 
 
+def _segmentation_error(phantom, stack, res) -> float:
+    """SMC fraction of the tissue in the registered segmentation minus that of the true section planes (the
+    reference frame's field), both over the registered common field."""
+    planes, _ = section_phantom(phantom, thickness_um=stack.thickness_um)
+    m = stack.margin_px
+    ref = planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]]
+    valid = res.registered.valid
+    return (
+        label_fractions(res.segmentation.labels, valid=valid)["smc_tissue"]
+        - label_fractions(ref, valid=valid)["smc_tissue"]
+    )
+
+
 def seed_row(options, *, seed, grid_um=8.0, chain=None):
-    """Pipeline on one seed (or the outputs of :func:`run_chain`): registration, V_V, L_V (also
-    traced on the true planes, with and without the profile cores) and the direction errors of
-    one Watson-mixture fit (no bootstrap)."""
+    """Pipeline on one seed (or the outputs of :func:`run_chain`): registration, V_V against its allowance (2 CE
+    V_V + |segmentation error|), L_V against the full-axis truth (also traced on the true planes, and against the
+    visible axis) and the direction errors of one Watson-mixture fit (no bootstrap)."""
     if chain is None:
         phantom = make_phantom(options, rng=seed)
         stack = render_sections(phantom, thickness_um=5.0, axis="z", rng=seed)
@@ -130,24 +162,56 @@ def seed_row(options, *, seed, grid_um=8.0, chain=None):
     m = stack.margin_px
     ref = planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]] == SMC
     on_truth = trace_cells(ref, spacing_um=(5.0, 1.0, 1.0), valid=reg.valid, rng=seed)
-    on_truth0 = trace_cells(ref, spacing_um=(5.0, 1.0, 1.0), valid=reg.valid, rng=seed, core_px=0)
-    corr = trace_cells(res.segmentation.labels == SMC, spacing_um=(5.0, 1.0, 1.0), valid=reg.valid, rng=seed,
-                       end_correction=True)  # fmt: skip
     tr = res.traced
-    mix = fit_watson_mixture(tr.directions, 3, weights=tr.lengths_um, rng=0)
+    mix = fit_watson_mixture(tr.directions, 3, weights=tr.lengths_um, background=True, rng=0)
     true_axes = np.array([stack_frame("z") @ np.asarray(a) for a in options.axes])
     al, _ = align_axes(mix.axes, true_axes)
+    smc = res.point_counts().summary()["smc"]
+    ce = smc["CE_q_hat"] if np.isfinite(smc["CE_q_hat"]) else smc["CE_m1"]
+    seg = _segmentation_error(phantom, stack, res)
     return {
         "seed": seed,
         "reg_max_px": float(err.max()),
-        "vv_err": res.point_counts().summary()["smc"]["V_V"] - vf["smc_tissue"],
+        "vv_err": smc["V_V"] - vf["smc_tissue"],
+        "vv_allowed": 2 * ce * smc["V_V"] + abs(seg),
+        "seg_err": seg,
         "lv_err_pct": 100 * (tr.length_density() / lv - 1),
         "lv_visible_err_pct": 100 * (tr.length_density() / lv_vis - 1),
         "visible_share": lv_vis / lv,
         "lv_true_planes_err_pct": 100 * (on_truth.length_density() / lv - 1),
-        "lv_true_planes0_err_pct": 100 * (on_truth0.length_density() / lv - 1),
-        "lv_corr_err_pct": 100 * (corr.length_density() / lv - 1),
         "dir_err_deg": axial_angle(al, true_axes),
+    }
+
+
+def phantom_geometry(phantom) -> dict:
+    """What the validation table states about a phantom's cells: count, SMC fraction of the tissue, SMC volume per
+    um of axis in tissue (against the nominal spindle's 2 pi b^2 / 3), 10/50/90 % quantiles of the in-block axis
+    lengths and of the equivalent radii sqrt(volume / (pi length in tissue)), and the share of the axes inside their
+    own cell's voxels (1 where cells do not interpenetrate)."""
+    o = phantom.options
+    sizes = np.bincount(phantom.cell_ids.ravel(), minlength=len(phantom.segments_um) + 1)[1:] * phantom.voxel_um**3
+    in_tissue = phantom.tissue_lengths_um()
+    ok = in_tissue > 1.0  # cells with at least 1 um of axis in tissue
+    full = in_tissue.sum()
+    return {
+        "n_cells": len(phantom.segments_um),
+        "smc_tissue": phantom.volume_fractions()["smc_tissue"],
+        "area_per_um": float(sizes.sum() / full),
+        "spindle_area": 2 * np.pi * o.cell_radius_um**2 / 3,
+        "length_q": np.quantile(phantom.lengths_um, [0.1, 0.5, 0.9]),
+        "radius_q": np.quantile(np.sqrt(sizes[ok] / (np.pi * in_tissue[ok])), [0.1, 0.5, 0.9]),
+        "visible_share": float(phantom.tissue_lengths_um(visible=True).sum() / full),
+    }
+
+
+def targets_met(row) -> dict[str, bool]:
+    """The issue's four targets on one seed row: registration < 1 px; |V_V error| <= 2 CE V_V + |segmentation
+    error|; all three directions within 10 degrees; L_V within 15 % of the full-axis truth."""
+    return {
+        "registration < 1 px": row["reg_max_px"] < 1.0,
+        "V_V within 2 CE + |segmentation error|": abs(row["vv_err"]) <= row["vv_allowed"],
+        "directions within 10 deg": bool(np.all(np.asarray(row["dir_err_deg"]) < 10.0)),
+        "L_V within 15 %": abs(row["lv_err_pct"]) < 15.0,
     }
 
 
