@@ -51,6 +51,8 @@ def test_axes_lie_inside_their_own_voxels(phantom):
     full = phantom.tissue_lengths_um().sum()
     visible = phantom.tissue_lengths_um(visible=True).sum()
     assert visible == pytest.approx(full, rel=1e-12) and full > 0
+    truth = phantom.truth()
+    assert truth["packing"] == "tessellation" and truth["axes_inside_own_cell"] == pytest.approx(1.0, rel=1e-12)
 
 
 def test_fraction_and_sizes(phantom):

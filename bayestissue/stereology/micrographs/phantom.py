@@ -219,6 +219,12 @@ class TissuePhantom:
             out[i] = L * keep.mean()
         return out
 
+    def visible_share(self) -> float:
+        """Share of the axis length in tissue that lies inside the cell's own voxels (1 where cells do not
+        interpenetrate; nan without axes in tissue)."""
+        full = float(self.tissue_lengths_um().sum())
+        return float(self.tissue_lengths_um(visible=True).sum()) / full if full > 0 else float("nan")
+
     def volume_fractions(self, region: tuple[slice, ...] | None = None) -> dict[str, float]:
         """Voxel volume fractions of the block (``*_total``) and of the tissue (``*_tissue``)."""
         c = self.components if region is None else self.components[region]
@@ -261,6 +267,8 @@ class TissuePhantom:
                 "smc_fraction_of_tissue": o.smc_fraction,
                 "cavity_fraction": o.cavity_fraction,
             },
+            "packing": o.packing,
+            "axes_inside_own_cell": self.visible_share(),
             "length_density_per_um2": self.length_density(),
             "total_tissue_length_um": float(self.tissue_lengths_um().sum()),
             "volume_um3": self.volume_um3,

@@ -200,7 +200,7 @@ def phantom_geometry(phantom) -> dict:
         "spindle_area": 2 * np.pi * o.cell_radius_um**2 / 3,
         "length_q": np.quantile(phantom.lengths_um, [0.1, 0.5, 0.9]),
         "radius_q": np.quantile(np.sqrt(sizes[ok] / (np.pi * in_tissue[ok])), [0.1, 0.5, 0.9]),
-        "visible_share": float(phantom.tissue_lengths_um(visible=True).sum() / full),
+        "visible_share": phantom.visible_share(),
     }
 
 
