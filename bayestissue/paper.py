@@ -17,6 +17,7 @@ import numpy as np
 
 __all__ = [
     "PARAMETER_KINDS",
+    "param_kind",
     "KIND_BOUNDS",
     "KIND_INITIAL",
     "PARAM_UNITS",
@@ -34,6 +35,12 @@ __all__ = [
 
 #: Parameter kinds of the composite (name without the fibre index) in the paper's order per family.
 PARAMETER_KINDS = ("mu", "kappa", "ginf", "gamma", "beta")
+
+
+def param_kind(name: str) -> str:
+    """The kind of a parameter name, its fibre index dropped: ``"ginf3"`` -> ``"ginf"``, ``"mu"`` -> ``"mu"``."""
+    return name.rstrip("0123456789")
+
 
 #: Unit of each parameter kind.
 PARAM_UNITS = {"mu": "kPa", "kappa": "kPa", "ginf": "kPa", "gamma": "1", "beta": "1/s"}

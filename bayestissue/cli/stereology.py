@@ -44,6 +44,11 @@ def register(subparsers) -> None:
     ln = sub.add_parser("lines", help="length density, orientation tensor, Watson mixture")
     ln.add_argument("lines", help="line-system CSV (with its .toml sidecar)")
     ln.add_argument("--seed", type=int, default=0)
+    ln.add_argument(
+        "--uniform-background",
+        action="store_true",
+        help="add a uniform component to the mixture (lines traced from packed cells: fragments in every direction)",
+    )
 
     r = sub.add_parser("rose", help="top directions of the equal-area rose for several n")
     r.add_argument("lines", help="line-system CSV")
@@ -128,9 +133,10 @@ def _lines(args) -> int:
         print(f"V = {ls.volume_um3:.1f} um^3, L_V = {ls.length_density():.5f} um^-2 (paper eq. 2)")
     lam, vec = principal_axes(orientation_tensor(ls.directions, ls.lengths))
     print("orientation tensor eigenvalues:", np.round(lam, 4).tolist())
-    mix = fit_watson_mixture(ls.directions, 3, weights=ls.lengths, rng=args.seed)
+    mix = fit_watson_mixture(ls.directions, 3, weights=ls.lengths, background=args.uniform_background, rng=args.seed)
     az, el = azimuth_elevation(mix.axes)
-    print("Watson mixture (length-weighted EM):")
+    bg = f", uniform background weight {mix.background:.3f}" if args.uniform_background else ""
+    print(f"Watson mixture (length-weighted EM{bg}):")
     for k in range(3):
         print(
             f"  axis {np.round(mix.axes[k], 4).tolist()}  az {az[k]:6.1f}  el {el[k]:5.1f}  "

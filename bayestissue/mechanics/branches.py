@@ -37,6 +37,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 from bayestissue.mechanics.tissue import TissueConfig
+from bayestissue.paper import param_kind
 
 __all__ = ["with_second_branch", "branch_relaxation", "second_branch_ties"]
 
@@ -94,7 +95,7 @@ def second_branch_ties(tied, n_fibres: int, families) -> tuple[tuple[str, str], 
 
 def _kind_family(name: str) -> tuple[str, int]:
     """``"ginf3"`` -> ``("ginf", 3)``."""
-    kind = name.rstrip("0123456789")
+    kind = param_kind(name)
     return kind, int(name[len(kind) :])
 
 

@@ -19,6 +19,7 @@ from bayestissue.paper import (
     PAPER_DIRECTIONS_PRINTED,
     PAPER_PHI_FIBRES,
     PAPER_PHI_MATRIX,
+    param_kind,
 )
 
 __all__ = [
@@ -34,7 +35,7 @@ __all__ = [
 def modulus_indices(names) -> list[int]:
     """Positions of the moduli (``mu``, ``kappa``, ``ginf<k>``) among parameter ``names``: what a stiffness scale
     multiplies."""
-    return [i for i, n in enumerate(names) if n.rstrip("0123456789") in ("mu", "kappa", "ginf")]
+    return [i for i, n in enumerate(names) if param_kind(n) in ("mu", "kappa", "ginf")]
 
 
 def param_names(n_fibres: int = 3) -> tuple[str, ...]:
@@ -152,7 +153,7 @@ def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:
         )
     for j, name in enumerate(names):
         col = p2[:, j]
-        kind = name.rstrip("0123456789")
+        kind = param_kind(name)
         if kind == "gamma":
             bad = ~((col >= 0) & (col < 1))
             expected = "a value in [0, 1)"
@@ -175,7 +176,7 @@ def parse_parameters(text: str, names: tuple[str, ...], *, base: np.ndarray | No
     initial guess, the same for every fibre family) for the names not given. Unknown names raise a ValidationError
     listing the known ones."""
     if base is None:
-        base = [KIND_INITIAL[n.rstrip("0123456789")] for n in names]
+        base = [KIND_INITIAL[param_kind(n)] for n in names]
     values = np.array(base, dtype=float)
     given = set()
     for item in filter(None, (s.strip() for s in text.split(","))):

@@ -46,7 +46,7 @@ def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, thr
     ``profiles`` maps a label (``"T1"``) to a list of ProfileResult (any order; matched by
     ``name``).
     """
-    from bayestissue.paper import PARAM_UNITS
+    from bayestissue.paper import PARAM_UNITS, param_kind
     from bayestissue.plotting.style import FONT
 
     fig, axes = _grid(len(names), ncols=min(len(names), 4), size=(3.4, 3.4))
@@ -68,7 +68,7 @@ def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, thr
         ax.axhline(threshold, color="k", lw=0.8, ls="--")
         ax.set_xscale("log")
         ax.set_ylim(-0.5, ymax)
-        unit = PARAM_UNITS.get(name.rstrip("0123456789"), "")
+        unit = PARAM_UNITS.get(param_kind(name), "")
         ax.set_xlabel(f"{name} ({unit})" if unit and unit != "1" else name, fontsize=FONT["label"])
         ax.tick_params(labelsize=FONT["tick"])
         # below the panel: the identifiability class of each curve, never over the curves

@@ -19,7 +19,7 @@ from bayestissue._validation import ValidationError
 from bayestissue.inference import CalibrationProblem, ExperimentTerm, ParameterSet, ParameterSpec, make_noise
 from bayestissue.mechanics import ForwardModel, param_names, parse_parameters
 from bayestissue.mechanics.presets import preset
-from bayestissue.paper import KIND_BOUNDS, KIND_INITIAL, PAPER_PARAMETERS, PARAM_UNITS
+from bayestissue.paper import KIND_BOUNDS, KIND_INITIAL, PAPER_PARAMETERS, PARAM_UNITS, param_kind
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.forward import SpecimenForward, noise_sd, specimen_kinds, specimen_spec
 
@@ -51,7 +51,7 @@ def paper_parameter_set(
         raise ValidationError("prior", prior, "'default' or 'uniform'")
     specs = []
     for name in param_names(n_fibres):
-        prefix = name.rstrip("0123456789")
+        prefix = param_kind(name)
         p = "uniform" if (prior == "uniform" or prefix == "gamma") else "loguniform"
         (lo, hi), value = KIND_BOUNDS[prefix], KIND_INITIAL[prefix]
         if boxes and prefix in boxes and tuple(boxes[prefix]) != (lo, hi):

@@ -1,5 +1,7 @@
 """Stereology file formats (round trips, bad files) and the ``bayestissue stereology`` CLI."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -117,6 +119,8 @@ def test_cli_commands(files, tmp_path, capsys):
     assert "CE_m1" in capsys.readouterr().out
     assert main(["stereology", "lines", str(lpath)]) == 0
     assert "L_V" in capsys.readouterr().out
+    assert main(["stereology", "lines", str(lpath), "--uniform-background"]) == 0
+    assert re.search(r"uniform background weight 0\.\d{3}\)", capsys.readouterr().out)
     out_rose = tmp_path / "rose.csv"
     assert main(["stereology", "rose", str(lpath), "--n", "8", "15", "--out", str(out_rose)]) == 0
     assert out_rose.is_file()

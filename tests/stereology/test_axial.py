@@ -123,6 +123,11 @@ def test_uniform_background_integrates_samples_and_is_recovered():
     assert np.all(axial_angle(aligned, PAPER_DIRECTIONS) < 3.0)
     assert fit.background == pytest.approx(0.45, abs=0.05)
     assert fit.weights.sum() + fit.background == pytest.approx(1.0, abs=1e-9)
+    # no background in the data: its weight goes to about 0 and the axes are the plain fit's
+    clean, _ = WatsonMixture(PAPER_DIRECTIONS, [20.0, 25.0, 25.0], [0.45, 0.275, 0.275]).sample(2000, rng=7)
+    plain, robust = fit_watson_mixture(clean, 3, rng=8), fit_watson_mixture(clean, 3, background=True, rng=8)
+    assert robust.background < 0.02
+    assert np.all(axial_angle(align_axes(robust.axes, plain.axes)[0], plain.axes) < 0.5)
     with pytest.raises(ValidationError, match="weights: expected 3 weights >= 0 summing to 1 - background"):
         WatsonMixture(PAPER_DIRECTIONS, [20.0, 25.0, 25.0], [0.45, 0.275, 0.275], background=0.2)
 
