@@ -9,6 +9,7 @@ from matplotlib.lines import Line2D
 
 from bayestissue._validation import check_positive
 from bayestissue.plotting.style import FONT
+from bayestissue.stereology.micrographs.validation import predicted_ce
 from bayestissue.stereology.rose import lambert_project
 
 __all__ = ["plot_overlay", "plot_validation", "LABEL_COLOURS"]
@@ -112,7 +113,7 @@ def plot_validation(main, old):
     names = [("smc", "smc_tissue"), ("ecm", "ecm_tissue")]
     for i, (c, key) in enumerate(names):
         est = s[c]["V_V"]
-        ce = s[c]["CE_q_hat"] if np.isfinite(s[c]["CE_q_hat"]) else s[c]["CE_m1"]
+        ce = predicted_ce(s[c])
         boot = main["vv_boot"][c]
         seg_e = abs(main["seg_err"][key])
         ax.errorbar(i - 0.1, est, yerr=2 * ce * est, fmt="o", color="C0", capsize=4,

@@ -28,6 +28,7 @@ from bayestissue._validation import (
     check_unit_vector,
 )
 from bayestissue.paper import PAPER_DIRECTIONS
+from bayestissue.stereology.micrographs.packing import AxisIndex, carve_seams, place_axes, tessellate
 
 __all__ = [
     "CAVITY",
@@ -206,9 +207,7 @@ class TissuePhantom:
         out = np.zeros(len(self.segments_um))
         for i, (p0, p1) in enumerate(self.segments_um):
             L = float(np.linalg.norm(p1 - p0))
-            n = max(2, int(np.ceil(L / step_um)))
-            t = (np.arange(n) + 0.5) / n
-            pts = p0 + t[:, None] * (p1 - p0)
+            pts = _midpoints(p0, p1 - p0, step_um)
             ijk = np.clip((pts / self.voxel_um).astype(int), 0, shape - 1)
             keep = self.components[ijk[:, 2], ijk[:, 1], ijk[:, 0]] != CAVITY
             if visible:
@@ -368,22 +367,6 @@ def _ellipsoid_voxels(centre, axis, a, b, shape, voxel):
     return iz + lo[2], iy + lo[1], ix + lo[0]
 
 
-def _carve_seams(cell_ids: np.ndarray) -> int:
-    """Free the later cell's voxel wherever two different cells touch (6-neighbours); count."""
-    seam = np.zeros(cell_ids.shape, dtype=bool)
-    for ax in range(3):
-        lo = [slice(None)] * 3
-        hi = [slice(None)] * 3
-        lo[ax], hi[ax] = slice(None, -1), slice(1, None)
-        lo, hi = tuple(lo), tuple(hi)
-        a, b = cell_ids[lo], cell_ids[hi]
-        touch = (a > 0) & (b > 0) & (a != b)
-        seam[lo] |= touch & (a > b)
-        seam[hi] |= touch & (b > a)
-    cell_ids[seam] = 0
-    return int(seam.sum())
-
-
 def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePhantom:
     r"""Generate a tissue block with known volume fractions and cell axes.
 
@@ -494,7 +477,7 @@ def make_phantom(options: PhantomOptions | None = None, *, rng=None) -> TissuePh
                     break
         if not o.seams:
             break
-        n_smc -= _carve_seams(cell_ids)
+        n_smc -= carve_seams(cell_ids)
         if n_smc >= n_target:
             break
         goal = n_smc + 1.25 * (n_target - n_smc)
@@ -531,10 +514,9 @@ def _phantom(o, cavity, cell_ids, segments, directions, comps, seed) -> TissuePh
 
 
 def _tessellated_cells(o, cavity, axes, weights, rng):
-    """Axes placed without crossing, then the tissue tessellated among them (:mod:`.packing`); more axes are added
-    until the SMC fraction is reachable. Returns cell ids, clipped segments, directions and mixture components."""
-    from bayestissue.stereology.micrographs.packing import AxisIndex, place_axes, tessellate
-
+    """Axes placed without crossing until their length in tissue is what the nominal spindles need, then the tissue
+    tessellated among them (:mod:`.packing`); a fraction the tessellation cannot reach is refused. Returns cell
+    ids, clipped segments, directions and mixture components."""
     shape, v = cavity.shape, o.voxel_um
     upper = np.array(shape[::-1], dtype=float) * v
     a, b = o.cell_length_um / 2, o.cell_radius_um
@@ -570,10 +552,10 @@ def _tessellated_cells(o, cavity, axes, weights, rng):
         if length >= length_needed or done < n:  # enough, or random packing jammed
             break
         per_axis = length / index.n
-    placed = (index.starts, index.vectors, np.array(index.components, dtype=int))
-    clipped = [clip_segment_to_box(p, p + d, upper) for p, d in zip(placed[0], placed[1], strict=True)]
+    clipped = [clip_segment_to_box(p, p + d, upper) for p, d in zip(index.starts, index.vectors, strict=True)]
     kept = [k for k, seg in enumerate(clipped) if seg is not None]
-    starts, vectors, comps = placed[0][kept], placed[1][kept], placed[2][kept]
+    starts, vectors = index.starts[kept], index.vectors[kept]
+    comps = np.array(index.components, dtype=int)[kept]
     ids, _, reached = tessellate(starts, vectors, b, tissue, v, o.smc_fraction)
     if ids is None:
         raise ValidationError(
@@ -585,18 +567,24 @@ def _tessellated_cells(o, cavity, axes, weights, rng):
     return _renumber(ids, segments, directions, comps)
 
 
+def _midpoints(p0, d, step) -> np.ndarray:
+    """Midpoints of the ``max(2, ceil(L / step))`` equal pieces of the segment ``p0 -> p0 + d`` (length L): the
+    sample points at which a length along the segment is measured."""
+    m = max(2, int(np.ceil(float(np.linalg.norm(d)) / step)))
+    return p0 + ((np.arange(m) + 0.5) / m)[:, None] * d
+
+
 def _tissue_length(starts, vectors, tissue, voxel, step=0.5) -> float:
     """Total length (um) of the segments ``starts + t vectors`` inside the block and in tissue, sampled every
     ``step`` um."""
     shape = np.array(tissue.shape[::-1])
     total = 0.0
     for p0, d in zip(starts, vectors, strict=True):
-        L = float(np.linalg.norm(d))
-        m = max(2, int(np.ceil(L / step)))
-        pts = p0 + ((np.arange(m) + 0.5) / m)[:, None] * d
+        pts = _midpoints(p0, d, step)
         ijk = np.floor(pts / voxel).astype(int)
         inside = np.all((ijk >= 0) & (ijk < shape), axis=1)
-        total += L / m * np.count_nonzero(tissue[ijk[inside, 2], ijk[inside, 1], ijk[inside, 0]])
+        in_tissue = np.count_nonzero(tissue[ijk[inside, 2], ijk[inside, 1], ijk[inside, 0]])
+        total += float(np.linalg.norm(d)) / len(pts) * in_tissue
     return total
 
 

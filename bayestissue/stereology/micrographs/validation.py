@@ -26,7 +26,7 @@ from bayestissue.stereology.replicates import direction_bootstrap, fraction_repl
 from bayestissue.stereology.sections import surs_indices
 from bayestissue.stereology.uncertainty import align_axes
 
-__all__ = ["DIRECTIONS", "grazing_loss", "phantom_geometry", "run_chain", "seed_row", "targets_met"]
+__all__ = ["DIRECTIONS", "grazing_loss", "phantom_geometry", "predicted_ce", "run_chain", "seed_row", "targets_met"]
 
 #: How the three directions are estimated from traced pieces: a Watson mixture with a uniform background (pieces
 #: traced across packed cells' fragments belong to no family; without it a component goes to them and two families
@@ -86,12 +86,8 @@ def run_chain(options, *, seed, n_boot, n_surs, period=2, grid_um=8.0):
     vf_true, lv_true, _ = _truth_in_field(phantom, stack, reg.valid)
     out["vf_true"], out["lv_true"] = vf_true, lv_true
     # segmentation error: registered labels against the true planes of the reference frame
-    planes, _ = section_phantom(phantom, thickness_um=5.0)
-    m = stack.margin_px
-    ref = planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]]
-    seg_vf = label_fractions(res.segmentation.labels, valid=reg.valid)
-    plane_vf = label_fractions(ref, valid=reg.valid)
-    out["seg_err"] = {k: seg_vf[k] - plane_vf[k] for k in seg_vf}
+    ref = _reference_planes(phantom, stack)
+    out["seg_err"] = _segmentation_error(res.segmentation.labels, ref, reg.valid)
     out["confusion"] = confusion_matrix(res.segmentation.labels, ref, valid=reg.valid)
     # point counting: estimate, CE predictors, parametric bootstrap
     pc = res.point_counts()
@@ -131,17 +127,17 @@ def run_chain(options, *, seed, n_boot, n_surs, period=2, grid_um=8.0):
     return out
 
 
-def _segmentation_error(phantom, stack, res) -> float:
-    """SMC fraction of the tissue in the registered segmentation minus that of the true section planes (the
-    reference frame's field), both over the registered common field."""
+def _reference_planes(phantom, stack) -> np.ndarray:
+    """The phantom's true section planes (component codes) cropped to the camera field of the reference frame."""
     planes, _ = section_phantom(phantom, thickness_um=stack.thickness_um)
     m = stack.margin_px
-    ref = planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]]
-    valid = res.registered.valid
-    return (
-        label_fractions(res.segmentation.labels, valid=valid)["smc_tissue"]
-        - label_fractions(ref, valid=valid)["smc_tissue"]
-    )
+    return planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]]
+
+
+def _segmentation_error(labels, ref, valid) -> dict[str, float]:
+    """Fractions of the segmented ``labels`` minus those of the true planes ``ref``, over the common field."""
+    seg_vf, plane_vf = label_fractions(labels, valid=valid), label_fractions(ref, valid=valid)
+    return {k: seg_vf[k] - plane_vf[k] for k in seg_vf}
 
 
 def seed_row(options, *, seed, grid_um=8.0, chain=None):
@@ -158,22 +154,19 @@ def seed_row(options, *, seed, grid_um=8.0, chain=None):
     reg = res.registered
     err = displacement_error_px(reg.transforms, stack.transforms, stack.images.shape[1:3], mask=reg.valid)
     vf, lv, lv_vis = _truth_in_field(phantom, stack, reg.valid)
-    planes, _ = section_phantom(phantom, thickness_um=5.0)
-    m = stack.margin_px
-    ref = planes[:, m : m + stack.labels.shape[1], m : m + stack.labels.shape[2]] == SMC
-    on_truth = trace_cells(ref, spacing_um=(5.0, 1.0, 1.0), valid=reg.valid, rng=seed)
+    ref = _reference_planes(phantom, stack)
+    on_truth = trace_cells(ref == SMC, spacing_um=(5.0, 1.0, 1.0), valid=reg.valid, rng=seed)
     tr = res.traced
     mix = fit_watson_mixture(tr.directions, 3, weights=tr.lengths_um, background=True, rng=0)
     true_axes = np.array([stack_frame("z") @ np.asarray(a) for a in options.axes])
     al, _ = align_axes(mix.axes, true_axes)
     smc = res.point_counts().summary()["smc"]
-    ce = smc["CE_q_hat"] if np.isfinite(smc["CE_q_hat"]) else smc["CE_m1"]
-    seg = _segmentation_error(phantom, stack, res)
+    seg = _segmentation_error(res.segmentation.labels, ref, reg.valid)["smc_tissue"]
     return {
         "seed": seed,
         "reg_max_px": float(err.max()),
         "vv_err": smc["V_V"] - vf["smc_tissue"],
-        "vv_allowed": 2 * ce * smc["V_V"] + abs(seg),
+        "vv_allowed": 2 * predicted_ce(smc) * smc["V_V"] + abs(seg),
         "seg_err": seg,
         "lv_err_pct": 100 * (tr.length_density() / lv - 1),
         "lv_visible_err_pct": 100 * (tr.length_density() / lv_vis - 1),
@@ -181,6 +174,12 @@ def seed_row(options, *, seed, grid_um=8.0, chain=None):
         "lv_true_planes_err_pct": 100 * (on_truth.length_density() / lv - 1),
         "dir_err_deg": axial_angle(al, true_axes),
     }
+
+
+def predicted_ce(row) -> float:
+    """The CE the validation states for one component's row of ``PointCounts.summary()``: CE_q_hat, or CE_m1 where
+    q_hat is undefined (fewer than 5 sections)."""
+    return row["CE_q_hat"] if np.isfinite(row["CE_q_hat"]) else row["CE_m1"]
 
 
 def phantom_geometry(phantom) -> dict:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayestissue.stereology.micrographs.validation import phantom_geometry, targets_met
+from bayestissue.stereology.micrographs.validation import phantom_geometry, predicted_ce, targets_met
 
 __all__ = ["validation_markdown"]
 
@@ -25,9 +25,7 @@ def _shares(seed_rows, name) -> str:
 
 def _ce_ratio(run, key) -> str:
     """Predicted CE_q_hat (CE_m1 where q_hat is undefined) x V_V over the measured SURS sd."""
-    s = run[key]["smc"]
-    ce = s["CE_q_hat"] if np.isfinite(s["CE_q_hat"]) else s["CE_m1"]
-    return f"{ce * run['summary']['smc']['V_V'] / run['vv_surs'].std(ddof=1):.2f}"
+    return f"{predicted_ce(run[key]['smc']) * run['summary']['smc']['V_V'] / run['vv_surs'].std(ddof=1):.2f}"
 
 
 def _phantom_lines(r) -> list[str]:
@@ -59,7 +57,7 @@ def _phantom_lines(r) -> list[str]:
     s = r["summary"]["smc"]
     se = r["seg_err"]["smc_tissue"]
     vt = r["vf_true"]["smc_tissue"]
-    ce = s["CE_q_hat"] if np.isfinite(s["CE_q_hat"]) else s["CE_m1"]
+    ce = predicted_ce(s)
     lo, hi = np.quantile(r["vv_boot"]["smc"], [0.025, 0.975])
     L.append(
         f"- V_V(SMC, tissue): estimate {s['V_V']:.3f}, truth {vt:.3f} (error {s['V_V'] - vt:+.3f}); CE_q_hat "
