@@ -133,21 +133,14 @@ def run(args) -> int:
 
 
 def _pixel_size(source, given: float | None) -> float:
-    """``--pixel-size-um``, else what the (first) TIFF states; a one-line refusal when neither gives one."""
+    """``--pixel-size-um``, else what the (first) TIFF states; a one-line refusal when neither gives one. The source
+    is checked first (it exists, holds sections, each file starts as its format does), so that a bad source is named
+    as such, not as a missing pixel size."""
     from bayestissue._validation import ValidationError, check_positive
-    from bayestissue.io.micrographs import section_files, tiff_pixel_size_um
+    from bayestissue.io.micrographs import stack_files, tiff_pixel_size_um
 
-    src = Path(source)
-    first = src
-    if src.is_dir():
-        files = section_files(src)  # the reader's order: the first section is the one whose metadata counts
-        first = files[0] if files else src
-    stated = None
-    if first.is_file() and first.suffix.lower() in (".tif", ".tiff"):
-        try:
-            stated = tiff_pixel_size_um(first)
-        except Exception:  # an unreadable file is named by the reader, with its own message
-            stated = None
+    first = stack_files(source)[0]  # the reader's order: the first section is the one whose metadata counts
+    stated = tiff_pixel_size_um(first) if first.suffix.lower() in (".tif", ".tiff") else None
     if given is not None:
         given = check_positive("--pixel-size-um", given)
         if stated is not None and abs(stated / given - 1) > 1e-3:

@@ -8,7 +8,9 @@ TIFF's own metadata (:func:`tiff_pixel_size_um`: the resolution tags, or ImageJ'
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import re
 from pathlib import Path
 
@@ -23,6 +25,7 @@ __all__ = [
     "read_micrographs",
     "tiff_pixel_size_um",
     "section_files",
+    "stack_files",
     "write_micrographs",
     "write_truth",
     "read_truth",
@@ -37,7 +40,8 @@ def _natural_key(path: Path):
 
 def section_files(folder: str | Path) -> list[Path]:
     """The section images of ``folder`` in natural sort order of their names (``s2.png`` before ``s10.png``)."""
-    return sorted((p for p in Path(folder).iterdir() if p.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key)
+    files = (p for p in Path(folder).iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+    return sorted(files, key=_natural_key)
 
 
 def _to_uint8(img: np.ndarray, name: str) -> np.ndarray:
@@ -61,21 +65,71 @@ _SIGNATURES = {
 }
 
 
+def _check_signature(path: Path) -> None:
+    """Refuse, by name, a file whose first bytes are not those of its suffix's image format."""
+    with path.open("rb") as fh:
+        head = fh.read(8)
+    if not head.startswith(_SIGNATURES.get(path.suffix.lower(), (b"",))):
+        raise ValidationError(f"image {path}", f"a file starting {head[:4]!r}", _expected(path))
+
+
+def _expected(path: Path) -> str:
+    return f"a readable {path.suffix.lower().lstrip('.').upper()} image"
+
+
 def _read_image(path: Path) -> np.ndarray:
     """One image file's pixels; a file that is not an image of its suffix's format is refused by name (checked by
     its signature first: imageio would otherwise try every plugin on it and leave files open)."""
-    kind = path.suffix.lower()
-    with path.open("rb") as fh:
-        head = fh.read(8)
-    expected = f"a readable {kind.lstrip('.').upper()} image"
-    if not head.startswith(_SIGNATURES.get(kind, (b"",))):
-        raise ValidationError(f"image {path}", f"a file starting {head[:4]!r}", expected)
+    _check_signature(path)
     try:
-        if kind in (".tif", ".tiff"):
-            return tifffile.imread(path)
+        if path.suffix.lower() in (".tif", ".tiff"):
+            with _tiff_damage(path):
+                return tifffile.imread(path)
         return iio.imread(path, plugin="pillow")
+    except ValidationError:
+        raise
     except Exception as exc:  # a damaged file: the readers raise OSError, ValueError, their own errors and more
-        raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", expected) from None
+        raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", _expected(path)) from None
+
+
+@contextlib.contextmanager
+def _tiff_damage(path: Path):
+    """tifffile logs what it cannot parse in a damaged file (tags or pages pointing past its end) and reads on; here
+    the first such record refuses the file by name, in one line, instead of printing log lines."""
+    records: list[logging.LogRecord] = []
+    handler = logging.Handler(logging.ERROR)
+    handler.emit = records.append
+    log = tifffile.logger()
+    log.addHandler(handler)
+    propagate, log.propagate = log.propagate, False  # not also to handlers configured on the root logger
+    try:
+        yield
+    finally:
+        log.removeHandler(handler)
+        log.propagate = propagate
+    if records:
+        what = records[0].getMessage().split("\n")[0][:120]
+        raise ValidationError(f"image {path}", f"damaged ({what})", _expected(path))
+
+
+def stack_files(source: str | Path) -> list[Path]:
+    """The files a stack is read from, checked before any pixel is read: a folder's section images in reading
+    order, or the one multi-page TIFF. Refused by name: a source that does not exist (FileNotFoundError); an empty
+    folder, a file that is no TIFF, a file whose first bytes are not its suffix's format (ValidationError)."""
+    src = Path(source)
+    if not src.exists():
+        raise FileNotFoundError(f"micrograph source {str(src)!r} does not exist")
+    if src.is_dir():
+        files = section_files(src)
+        if not files:
+            raise ValidationError("source", str(src), f"a folder with {'/'.join(IMAGE_SUFFIXES)} section images")
+    elif src.suffix.lower() in (".tif", ".tiff"):
+        files = [src]
+    else:
+        raise ValidationError("source", str(src), "a folder of PNG/JPEG/TIFF sections or a multi-page .tif/.tiff file")
+    for p in files:
+        _check_signature(p)
+    return files
 
 
 #: micrometres per unit of the TIFF ResolutionUnit tag (2 inch, 3 centimetre) and of ImageJ's ``unit`` entry
@@ -92,8 +146,16 @@ def tiff_pixel_size_um(path: str | Path) -> float | None:
     ImageJ writes it), from ImageJ's ``unit`` entry in the image description (micron, nm, mm ...). A resolution of
     72 pixels per inch with no ImageJ unit is the writers' default, not a measurement: None.
     """
-    import tifffile
+    try:
+        with _tiff_damage(Path(path)):
+            return _stated_pixel_size(path)
+    except ValidationError:
+        raise
+    except Exception as exc:  # a damaged TIFF: tifffile raises its own errors, OSError, ValueError, ...
+        raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", _expected(Path(path))) from None
 
+
+def _stated_pixel_size(path) -> float | None:
     with tifffile.TiffFile(path) as tif:
         page = tif.pages[0]
         tags = page.tags
@@ -130,24 +192,16 @@ def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:
     different sizes or channel counts, or unsupported pixel types.
     """
     src = Path(source)
-    if not src.exists():
-        raise FileNotFoundError(f"micrograph source {str(src)!r} does not exist")
+    files = stack_files(src)
     if src.is_dir():
-        files = section_files(src)
-        if not files:
-            raise ValidationError("source", str(src), f"a folder with {'/'.join(IMAGE_SUFFIXES)} section images")
-        imgs, names = [], []
-        for p in files:
-            imgs.append(_to_uint8(_read_image(p), p.name))
-            names.append(p.name)
-    elif src.suffix.lower() in (".tif", ".tiff"):
+        imgs = [_to_uint8(_read_image(p), p.name) for p in files]
+        names = [p.name for p in files]
+    else:
         a = _read_image(src)
         if a.ndim == 2 or (a.ndim == 3 and a.shape[-1] in (3, 4) and a.shape[0] > 4):
             a = a[None]  # a single page
         imgs = [_to_uint8(x, f"{src.name} page {k}") for k, x in enumerate(a)]
         names = [f"{src.name}[{k}]" for k in range(len(imgs))]
-    else:
-        raise ValidationError("source", str(src), "a folder of PNG/JPEG/TIFF sections or a multi-page .tif/.tiff file")
     shapes = [im.shape for im in imgs]
     if len(set(shapes)) != 1:
         k = next(i for i, s in enumerate(shapes) if s != shapes[0])

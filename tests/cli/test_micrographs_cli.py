@@ -145,6 +145,36 @@ def test_empty_and_missing_sources(tmp_path, capsys):
     assert "fixed: expected an image with structure" in capsys.readouterr().err
 
 
+def test_bad_source_is_named_before_the_pixel_size(tmp_path, capsys):
+    """Without --pixel-size-um a missing source, a non-image file or a file that is not its format is named as
+    such, not reported as stating no pixel size; one line, exit 2."""
+    (tmp_path / "f").mkdir()
+    (tmp_path / "f" / "s1.png").write_text("hello")
+    (tmp_path / "notes.txt").write_text("x")
+    (tmp_path / "t.tif").write_text("x")
+    cases = {"nope": "does not exist", "notes.txt": "source: expected a folder of PNG/JPEG/TIFF sections",
+             "f": "s1.png: expected a readable PNG image", "t.tif": "t.tif: expected a readable TIF image"}  # fmt: skip
+    for name, message in cases.items():
+        rc = main(["micrographs", "analyse", str(tmp_path / name), "--section-thickness-um", "5",
+                   "--out", str(tmp_path / "o")])  # fmt: skip
+        err = capsys.readouterr().err
+        assert rc == 2 and message in err and "pixel-size" not in err and err.count("\n") == 1, (name, err)
+
+
+def test_damaged_tiff_is_refused_in_one_line(tmp_path, capsys):
+    """A TIFF cut short after its header: tifffile logs each tag it cannot read and carries on; the reader refuses
+    the file by name in one line instead (with and without --pixel-size-um: the metadata reader sees it first)."""
+    tifffile.imwrite(tmp_path / "good.tif", np.zeros((3, 20, 20, 3), np.uint8), photometric="rgb",
+                     resolution=(1e4, 1e4), resolutionunit="CENTIMETER")  # fmt: skip
+    (tmp_path / "cut.tif").write_bytes((tmp_path / "good.tif").read_bytes()[:200])
+    for extra in ([], ["--pixel-size-um", "1"]):
+        rc = main(["micrographs", "analyse", str(tmp_path / "cut.tif"), "--section-thickness-um", "5",
+                   "--out", str(tmp_path / "o"), *extra])  # fmt: skip
+        captured = capsys.readouterr()
+        assert rc == 2 and "image " in captured.err and "cut.tif: expected a readable TIF image, got" in captured.err
+        assert "damaged" in captured.err and captured.err.count("\n") == 1 and captured.out == ""
+
+
 @pytest.fixture(scope="module")
 def chain():
     """Phantom -> images -> pipeline on the default 60 x 100 x 100 um phantom (seed 1)."""
