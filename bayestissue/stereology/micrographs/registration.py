@@ -15,6 +15,7 @@ References: Reddy & Chatterji 1996, IEEE Trans. Image Process. 5:1266, doi:10.11
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -243,25 +244,24 @@ def register_stack(
     if int(n_template) != n_template or n_template < 1:
         raise ValidationError("n_template", n_template, "a positive integer")
     n = images.shape[0]
-    gray = [_gray(img) for img in images]
     T = np.empty((n, 3, 3))
     T[0] = np.eye(3)
-    registered = [gray[0]]
+    # gray sections are made one at a time and only the last n_template registered ones are kept: a float64 gray
+    # copy of the whole stack would be 8 / 3 of an RGB uint8 stack's memory, and the registered copies as much again
+    previous = _gray(images[0])
+    registered = deque([previous], maxlen=int(n_template))
     pairwise = np.empty((max(n - 1, 0), 3))
     for i in range(1, n):
+        current = _gray(images[i])
         if n_template == 1:
-            A = estimate_rigid(
-                gray[i - 1],
-                gray[i],
-                max_rotation_deg=max_rotation_deg,
-                upsample_factor=upsample_factor,
-            )
+            A = estimate_rigid(previous, current, max_rotation_deg=max_rotation_deg, upsample_factor=upsample_factor)
             T[i] = A @ T[i - 1]
         else:
-            template = np.mean(registered[-int(n_template) :], axis=0)
-            T[i] = estimate_rigid(template, gray[i], max_rotation_deg=max_rotation_deg, upsample_factor=upsample_factor)
-            registered.append(warp(gray[i], EuclideanTransform(matrix=T[i]), order=1, mode="edge"))
-        pairwise[i - 1] = rigid_params(T[i] @ np.linalg.inv(T[i - 1]), gray[i].shape)
+            template = np.mean(registered, axis=0)
+            T[i] = estimate_rigid(template, current, max_rotation_deg=max_rotation_deg, upsample_factor=upsample_factor)
+            registered.append(warp(current, EuclideanTransform(matrix=T[i]), order=1, mode="edge"))
+        pairwise[i - 1] = rigid_params(T[i] @ np.linalg.inv(T[i - 1]), current.shape)
+        previous = current
         if progress is not None:
             progress(1)
     H, W = images.shape[1:3]
