@@ -202,7 +202,8 @@ def plot_validation(main, old):
     truth = main["vf_true"]["smc_tissue"]
     ax.axvline(truth, color="k", lw=2, label="truth")
     lo, hi = ax.get_xlim()
-    ax.set_xlim(min(lo, truth - 0.005), max(hi, truth + 0.005))  # the truth line clear of the frame
+    pad = 0.1 * (max(hi, truth) - min(lo, truth))  # the truth line clear of the frame
+    ax.set_xlim(min(lo, truth - pad), max(hi, truth + pad))
     ax.set_xlabel("V_V(SMC, tissue)")
     ax.set_ylabel("SURS starts")
     ax.set_title("(f) SURS spread vs predicted CE\n(one sample)")
