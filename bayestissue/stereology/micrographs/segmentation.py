@@ -149,28 +149,38 @@ def estimate_stain_vectors(
 
 
 def _features(images, method, stains, scale=None):
-    """Per-pixel (tissue, smc) features, float32 ``(n, H, W)`` each, computed section by section (no float64 copy
-    of the whole stack); ``scale`` = typical amount of each pure stain."""
+    """Per-pixel (tissue, smc) features, float32 ``(n, H, W)`` each, computed section by section: the two stain
+    amounts are recomputed per section in each pass instead of being held for the whole stack (they would take
+    twice the memory of one feature); ``scale`` = typical amount of each pure stain."""
     shape = images.shape[:3]
     f_t = np.empty(shape, dtype=np.float32)
     if method == "deconvolution":
         unmix = np.linalg.pinv(stains)
-        c = np.empty(shape + (2,), dtype=np.float32)
-        for i, section in enumerate(images):
+
+        def amounts(section):  # (H, W, 2) float32 stain amounts and the OD norm
             od = optical_density(section)
-            f_t[i] = np.linalg.norm(od, axis=-1)
-            c[i] = np.clip(od @ unmix, 0, None)
+            return np.clip(od @ unmix, 0, None).astype(np.float32), np.linalg.norm(od, axis=-1)
+
+        for i, section in enumerate(images):
+            f_t[i] = amounts(section)[1]
         if scale is None:  # typical pure-stain amounts, from clearly stained pixels
-            tissue = f_t > threshold_otsu(f_t) if np.ptp(f_t) > 0 else f_t > 0
-            red = tissue & (c[..., 0] > c[..., 1])
-            blue = tissue & (c[..., 0] <= c[..., 1])
-            scale = np.array(
-                [np.median(c[..., 0][red]) if red.any() else 1.0,
-                 np.median(c[..., 1][blue]) if blue.any() else 1.0]
-            )  # fmt: skip
+            t = threshold_otsu(f_t) if np.ptp(f_t) > 0 else 0.0
+            red_amounts, blue_amounts = [], []
+            for i, section in enumerate(images):
+                c = amounts(section)[0]
+                tissue = f_t[i] > t
+                red = tissue & (c[..., 0] > c[..., 1])
+                red_amounts.append(c[..., 0][red])
+                blue_amounts.append(c[..., 1][tissue & ~red])
+            scale = np.array([np.median(np.concatenate(v)) if sum(map(len, v)) else 1.0
+                              for v in (red_amounts, blue_amounts)])  # fmt: skip
+            del red_amounts, blue_amounts
             scale = np.where(scale > 0, scale, 1.0)
-        c /= scale.astype(np.float32)
-        share = c[..., 0] / np.maximum(c[..., 0] + c[..., 1], np.float32(1e-9))
+        share = np.empty(shape, dtype=np.float32)
+        s32 = scale.astype(np.float32)
+        for i, section in enumerate(images):
+            c = amounts(section)[0] / s32
+            share[i] = c[..., 0] / np.maximum(c[..., 0] + c[..., 1], np.float32(1e-9))
         return f_t, share, scale
     hue = np.empty(shape, dtype=np.float32)
     for i, section in enumerate(images):
@@ -289,18 +299,22 @@ def seam_mask(feature, smc, *, depth_sd: float = SEAM_DEPTH_SD) -> np.ndarray:
     depth_sd : the valley depth k in noise sds (2: chosen on phantoms, docs/verification.md).
     """
     f = np.asarray(feature, dtype=np.float32)
-    pair = smc[:, :, 1:] & smc[:, :, :-1]
-    d = (f[:, :, 1:] - f[:, :, :-1])[pair]
+    # section by section: whole-stack temporaries of the differences and comparisons would each take a feature's size
+    d = np.concatenate([(g[:, 1:] - g[:, :-1])[m[:, 1:] & m[:, :-1]] for g, m in zip(f, smc, strict=True)])
     if d.size < 2:
         return np.zeros(f.shape, dtype=bool)
-    sigma = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+    d -= np.median(d)
+    sigma = 1.4826 * float(np.median(np.abs(d, out=d))) / np.sqrt(2.0)
+    del d
     tau = np.float32(depth_sd * sigma)
     valley = np.zeros(f.shape, dtype=bool)
-    c = f[:, 1:-1, 1:-1]
-    for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        lo = f[:, 1 - dy : f.shape[1] - 1 - dy, 1 - dx : f.shape[2] - 1 - dx]
-        hi = f[:, 1 + dy : f.shape[1] - 1 + dy, 1 + dx : f.shape[2] - 1 + dx]
-        valley[:, 1:-1, 1:-1] |= c < np.minimum(lo, hi) - tau
+    H, W = f.shape[1:]
+    for g, v in zip(f, valley, strict=True):
+        c = g[1:-1, 1:-1]
+        for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            lo = g[1 - dy : H - 1 - dy, 1 - dx : W - 1 - dx]
+            hi = g[1 + dy : H - 1 + dy, 1 + dx : W - 1 + dx]
+            v[1:-1, 1:-1] |= c < np.minimum(lo, hi) - tau
     return valley & smc
 
 

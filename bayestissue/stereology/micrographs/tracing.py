@@ -414,7 +414,14 @@ def trace_cells(
     segments, ids = [], []
     objects = ndimage.find_objects(labels)
     keep = np.zeros(len(objects) + 1, dtype=bool)
-    regions = []
+
+    def points(lab_id):
+        """A region's core and full-profile voxel centres, made when needed: kept for every region at once they
+        would be a float64 copy of the SMC voxels' coordinates, twice (the largest memory of the pipeline)."""
+        pts = _points(labels, objects[lab_id - 1], lab_id, dxyz)
+        return pts, _points(grown, grown_objects[lab_id - 1], lab_id, dxyz) if core_px > 0 else pts
+
+    regions = []  # (id, voxel count, extent, linearity, axis) of each region kept
     for lab_id, sl in enumerate(objects, start=1):
         if sl is None:
             continue
@@ -424,13 +431,12 @@ def trace_cells(
         keep[lab_id] = True
         seg = fit_segment(pts, dxyz)
         L = float(np.linalg.norm(seg[1] - seg[0]))
-        full_pts = _points(grown, grown_objects[lab_id - 1], lab_id, dxyz) if core_px > 0 else pts
-        regions.append((lab_id, pts, full_pts, L, _linearity(pts), (seg[1] - seg[0]) / max(L, 1e-12)))
+        regions.append((lab_id, len(pts), L, _linearity(pts), (seg[1] - seg[0]) / max(L, 1e-12)))
     vox_um3 = float(np.prod(sp))
     # cell radius, measured on the full profiles of the line-like regions (step 6)
     radius = radius_um
     if end_correction and radius is None:
-        bs = [_in_plane_radius(fp, e1) for _, _, fp, _, lin, e1 in regions if lin < max_linearity]
+        bs = [_in_plane_radius(points(lab_id)[1], e1) for lab_id, _, _, lin, e1 in regions if lin < max_linearity]
         bs = [b for b in bs if np.isfinite(b)]
         radius = float(np.median(bs)) if bs else None
     corrected = bool(end_correction and radius is not None)
@@ -442,23 +448,24 @@ def trace_cells(
             pieces = _extend_ends(pieces, pts, full_pts)
         return _correct_ends(pieces, pts, radius, sp[0]) if corrected else pieces
 
-    traced = {lab_id: line_pieces(pts, fp) for lab_id, pts, fp, _, lin, _ in regions if lin < max_linearity}
+    traced = {lab_id: line_pieces(*points(lab_id)) for lab_id, _, _, lin, _ in regions if lin < max_linearity}
     # cross-section of a single cell, measured on the simple (line-like) regions
     # with the end correction: per unit of the corrected length (tips and grazed ends included),
     # so that volume / area is a whole length; without it: per unit of the cores' extent
     simple = [
-        len(pts) * vox_um3 / (_length(traced[lab_id]) if corrected else L)
-        for lab_id, pts, _, L, *_ in regions
+        n_vox * vox_um3 / (_length(traced[lab_id]) if corrected else L)
+        for lab_id, n_vox, L, *_ in regions
         if lab_id in traced
     ]
     area = float(np.median(simple)) if length_from_volume and len(simple) >= 5 else None
-    for lab_id, pts, full_pts, L, _, _ in regions:
+    for lab_id, n_vox, L, _, _ in regions:
         if lab_id in traced:
             pieces = traced[lab_id]
         elif area is None:
-            pieces = line_pieces(pts, full_pts)
+            pieces = line_pieces(*points(lab_id))
         else:  # merged cells: length = volume / cross-section, spread over the pieces
-            L_est = max(len(pts) * vox_um3 / area, L)
+            pts, full_pts = points(lab_id)
+            L_est = max(n_vox * vox_um3 / area, L)
             k = max(int(np.ceil(L / piece_length_um)), int(round(L_est / piece_length_um)))
             pieces = _pieces(pts, dxyz, piece_length_um, rng, k)
             scale = L_est / _length(pieces)
