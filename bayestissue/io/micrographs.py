@@ -81,21 +81,18 @@ def _read_image(path: Path) -> np.ndarray:
     """One image file's pixels; a file that is not an image of its suffix's format is refused by name (checked by
     its signature first: imageio would otherwise try every plugin on it and leave files open)."""
     _check_signature(path)
-    try:
+    with _refusing_damage(path):
         if path.suffix.lower() in (".tif", ".tiff"):
-            with _tiff_damage(path):
-                return tifffile.imread(path)
+            return tifffile.imread(path)
         return iio.imread(path, plugin="pillow")
-    except ValidationError:
-        raise
-    except Exception as exc:  # a damaged file: the readers raise OSError, ValueError, their own errors and more
-        raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", _expected(path)) from None
 
 
 @contextlib.contextmanager
-def _tiff_damage(path: Path):
-    """tifffile logs what it cannot parse in a damaged file (tags or pages pointing past its end) and reads on; here
-    the first such record refuses the file by name, in one line, instead of printing log lines."""
+def _refusing_damage(path: Path):
+    """Read ``path`` inside this block: a damaged file is refused by name in one line. The readers raise OSError,
+    ValueError, their own errors and more ("unreadable"); tifffile also logs what it cannot parse (tags or pages
+    pointing past the file's end) and reads on: its first such record refuses the file ("damaged") instead of
+    printing log lines."""
     records: list[logging.LogRecord] = []
     handler = logging.Handler(logging.ERROR)
     handler.emit = records.append
@@ -104,6 +101,8 @@ def _tiff_damage(path: Path):
     propagate, log.propagate = log.propagate, False  # not also to handlers configured on the root logger
     try:
         yield
+    except Exception as exc:
+        raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", _expected(path)) from None
     finally:
         log.removeHandler(handler)
         log.propagate = propagate
@@ -146,13 +145,8 @@ def tiff_pixel_size_um(path: str | Path) -> float | None:
     ImageJ writes it), from ImageJ's ``unit`` entry in the image description (micron, nm, mm ...). A resolution of
     72 pixels per inch with no ImageJ unit is the writers' default, not a measurement: None.
     """
-    try:
-        with _tiff_damage(Path(path)):
-            return _stated_pixel_size(path)
-    except ValidationError:
-        raise
-    except Exception as exc:  # a damaged TIFF: tifffile raises its own errors, OSError, ValueError, ...
-        raise ValidationError(f"image {path}", f"unreadable ({type(exc).__name__})", _expected(Path(path))) from None
+    with _refusing_damage(Path(path)):
+        return _stated_pixel_size(path)
 
 
 def _stated_pixel_size(path) -> float | None:

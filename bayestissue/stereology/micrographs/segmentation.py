@@ -157,17 +157,16 @@ def _features(images, method, stains, scale=None):
     if method == "deconvolution":
         unmix = np.linalg.pinv(stains)
 
-        def amounts(section):  # (H, W, 2) float32 stain amounts and the OD norm
-            od = optical_density(section)
-            return np.clip(od @ unmix, 0, None).astype(np.float32), np.linalg.norm(od, axis=-1)
+        def amounts(section):  # (H, W, 2) float32 stain amounts
+            return np.clip(optical_density(section) @ unmix, 0, None).astype(np.float32)
 
         for i, section in enumerate(images):
-            f_t[i] = amounts(section)[1]
+            f_t[i] = np.linalg.norm(optical_density(section), axis=-1)
         if scale is None:  # typical pure-stain amounts, from clearly stained pixels
             t = threshold_otsu(f_t) if np.ptp(f_t) > 0 else 0.0
             red_amounts, blue_amounts = [], []
             for i, section in enumerate(images):
-                c = amounts(section)[0]
+                c = amounts(section)
                 tissue = f_t[i] > t
                 red = tissue & (c[..., 0] > c[..., 1])
                 red_amounts.append(c[..., 0][red])
@@ -179,7 +178,7 @@ def _features(images, method, stains, scale=None):
         share = np.empty(shape, dtype=np.float32)
         s32 = scale.astype(np.float32)
         for i, section in enumerate(images):
-            c = amounts(section)[0] / s32
+            c = amounts(section) / s32
             share[i] = c[..., 0] / np.maximum(c[..., 0] + c[..., 1], np.float32(1e-9))
         return f_t, share, scale
     hue = np.empty(shape, dtype=np.float32)

@@ -415,11 +415,19 @@ def trace_cells(
     objects = ndimage.find_objects(labels)
     keep = np.zeros(len(objects) + 1, dtype=bool)
 
+    # a region's core and full-profile voxel centres are made when needed: kept for every region at once they would
+    # be a float64 copy of the SMC voxels' coordinates, twice (the largest memory of the pipeline)
+    def core(lab_id):
+        return _points(labels, objects[lab_id - 1], lab_id, dxyz)
+
+    def full(lab_id, pts=None):
+        if core_px == 0:
+            return core(lab_id) if pts is None else pts
+        return _points(grown, grown_objects[lab_id - 1], lab_id, dxyz)
+
     def points(lab_id):
-        """A region's core and full-profile voxel centres, made when needed: kept for every region at once they
-        would be a float64 copy of the SMC voxels' coordinates, twice (the largest memory of the pipeline)."""
-        pts = _points(labels, objects[lab_id - 1], lab_id, dxyz)
-        return pts, _points(grown, grown_objects[lab_id - 1], lab_id, dxyz) if core_px > 0 else pts
+        pts = core(lab_id)
+        return pts, full(lab_id, pts)
 
     regions = []  # (id, voxel count, extent, linearity, axis) of each region kept
     for lab_id, sl in enumerate(objects, start=1):
@@ -436,7 +444,7 @@ def trace_cells(
     # cell radius, measured on the full profiles of the line-like regions (step 6)
     radius = radius_um
     if end_correction and radius is None:
-        bs = [_in_plane_radius(points(lab_id)[1], e1) for lab_id, _, _, lin, e1 in regions if lin < max_linearity]
+        bs = [_in_plane_radius(full(lab_id), e1) for lab_id, _, _, lin, e1 in regions if lin < max_linearity]
         bs = [b for b in bs if np.isfinite(b)]
         radius = float(np.median(bs)) if bs else None
     corrected = bool(end_correction and radius is not None)
