@@ -38,20 +38,23 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from bayestissue.inference.summary import table_markdown  # noqa: E402
-from bayestissue.io.results import provenance, write_inference_data  # noqa: E402
-from bayestissue.io.tables import write_table  # noqa: E402
-from bayestissue.mechanics import load_experiment  # noqa: E402
-from bayestissue.plotting.inference import calibration_figures  # noqa: E402
-from bayestissue.workflows import config_from_mapping, run_calibration  # noqa: E402
-from bayestissue.workflows.calibration_study import (  # noqa: E402
+from bayestissue.analyses.calibration_study import (  # noqa: E402
     MODELS,
     SEED,
+    calibration_run,
     generating_cost,
     generating_line,
     recovery_lines,
     study_config,
 )
+from bayestissue.analyses.records import FILES, CalibrationRecord  # noqa: E402
+from bayestissue.inference.summary import table_markdown  # noqa: E402
+from bayestissue.io.records import write_record  # noqa: E402
+from bayestissue.io.results import provenance, write_inference_data  # noqa: E402
+from bayestissue.io.tables import write_table  # noqa: E402
+from bayestissue.mechanics import load_experiment  # noqa: E402
+from bayestissue.plotting.inference import calibration_figures  # noqa: E402
+from bayestissue.workflows import config_from_mapping, run_calibration  # noqa: E402
 from bayestissue.workflows.run_directory import open_run_directory, run_manifest  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,7 +91,7 @@ def main(argv=None) -> int:
         "| experiment | parameter | generating | posterior 90 % | inside | contraction | data |",
         "|---|---|---|---|---|---|---|",
     ]
-    verdicts, fits = [], []
+    verdicts, fits, record_runs = [], [], {}
     runs = [((name,), model) for model in args.models for name in args.only]
     if "mirror" in args.models and len(args.only) > 1:
         runs.append((tuple(args.only), "mirror"))  # the joint posterior (shared material parameters)
@@ -143,6 +146,7 @@ def main(argv=None) -> int:
             )
         recovery += recovery_lines(name, outcome)
         fits.append(generating_line(name, outcome))
+        record_runs[name] = calibration_run(outcome, exp_names, model, time.perf_counter() - t0)
         print(f"{name}: done in {time.perf_counter() - t0:.1f} s")
     intro = (
         f"Setting: {key}. `T1`, `T2`: the paper's 11 parameters (families 2/3 folded, ginf2 >= ginf3); "
@@ -166,6 +170,7 @@ def main(argv=None) -> int:
         ]
     )
     (args.out / "calibration_recovery.md").write_text(text + "\n")
+    write_record(args.out / FILES[CalibrationRecord], CalibrationRecord(mode=key, runs=record_runs))
     print(text)
     print(f"calibrate: done in {time.perf_counter() - t_all:.1f} s")
     return 0

@@ -5,7 +5,7 @@ The posteriors are the calibration stage's mirror-model runs (figures/calibratio
 from studies/calibrate.py, which make study runs first; --posteriors DIR to read them elsewhere), expanded to the 11
 parameters; least squares, profiles and sensitivities use the paper's 11 free parameters.
 
-Writes figures/identifiability_*.png and figures/identifiability_summary.json (read by studies/report.py).
+Writes figures/identifiability_*.png and figures/identifiability_record.json (read by studies/report.py).
 Independent runs fan out over dask.distributed (LocalCluster, or --scheduler tcp://host:8786) and are cached
 on disk by content hash (--cache-dir): a re-run, or a run after a lost worker, computes only what is missing.
 The cache key (bayestissue.parallel.task_key) hashes a task's function name and arguments, not its code, so the
@@ -20,7 +20,6 @@ more than 1e-3 in -2 log L, all parameters are re-optimised from it and every pr
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import matplotlib
@@ -28,10 +27,27 @@ import matplotlib
 matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 
+from bayestissue.analyses.identifiability import (  # noqa: E402
+    LABELS,
+    NAMES,
+    Timer,
+    calibrations,
+    client_for,
+    close_client,
+    distinct,
+    local_analyses,
+    parse_args,
+    posterior_measures,
+    profiles,
+    residuals_for,
+)
+from bayestissue.analyses.identifiability_record import identifiability_record  # noqa: E402
+from bayestissue.analyses.records import FILES, IdentifiabilityRecord  # noqa: E402
 from bayestissue.identifiability import (  # noqa: E402
     CHI2_1_95,
 )
 from bayestissue.io.figures import save_figure  # noqa: E402
+from bayestissue.io.records import write_record  # noqa: E402
 from bayestissue.plotting.identifiability import (  # noqa: E402
     plot_collinearity,
     plot_contraction,
@@ -41,22 +57,6 @@ from bayestissue.plotting.identifiability import (  # noqa: E402
     plot_profiles,
     plot_singular_values,
 )
-from bayestissue.workflows.identifiability import (  # noqa: E402
-    LABELS,
-    NAMES,
-    Timer,
-    calibrations,
-    client_for,
-    close_client,
-    distinct,
-    json_safe,
-    local_analyses,
-    parse_args,
-    posterior_measures,
-    profiles,
-    residuals_for,
-)
-from bayestissue.workflows.identifiability_summary import identifiability_summary  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -89,44 +89,59 @@ def main(argv=None) -> int:
     T.stage("posterior measures + figures")
     post = posterior_measures(cal)
     prof = {lab: list(pset[lab].profiles) for lab in LABELS}
-
-    save_figure(
-        plot_profiles(prof, [p for p in NAMES if p in args.mode.profile_params], threshold=CHI2_1_95),
-        out / "identifiability_profiles.png",
+    figures = []
+    figures.append(
+        save_figure(
+            plot_profiles(prof, [p for p in NAMES if p in args.mode.profile_params], threshold=CHI2_1_95),
+            out / "identifiability_profiles.png",
+        )
     )
-    save_figure(
-        plot_singular_values({lab: loc[lab].singular_values for lab in LABELS}),
-        out / "identifiability_singular_values.png",
+    figures.append(
+        save_figure(
+            plot_singular_values({lab: loc[lab].singular_values for lab in LABELS}),
+            out / "identifiability_singular_values.png",
+        )
     )
-    save_figure(
-        plot_collinearity({lab: [(s, g) for s, g in loc[lab].collinearity] for lab in LABELS}),
-        out / "identifiability_collinearity.png",
+    figures.append(
+        save_figure(
+            plot_collinearity({lab: [(s, g) for s, g in loc[lab].collinearity] for lab in LABELS}),
+            out / "identifiability_collinearity.png",
+        )
     )
     # a run that fits by inflating its noise keeps its label in every figure of what it "learnt"
-    tag = {lab: lab + (" (MISFIT)" if cal[lab].fit_check.startswith("MISFIT") else "") for lab in LABELS}
-    save_figure(
-        plot_contraction(
-            {tag[lab]: post[lab]["contraction"] for lab in LABELS}, NAMES, ylabel="contraction 1 - var_post/var_prior"
-        ),
-        out / "identifiability_contraction.png",
+    tag = {lab: lab + (" (MISFIT)" if cal[lab].misfit else "") for lab in LABELS}
+    figures.append(
+        save_figure(
+            plot_contraction(
+                {tag[lab]: post[lab]["contraction"] for lab in LABELS},
+                NAMES,
+                ylabel="contraction 1 - var_post/var_prior",
+            ),
+            out / "identifiability_contraction.png",
+        )
     )
-    save_figure(
-        plot_contraction({tag[lab]: post[lab]["kl"] for lab in LABELS}, NAMES, ylabel="KL(posterior || prior) (nats)"),
-        out / "identifiability_kl.png",
+    figures.append(
+        save_figure(
+            plot_contraction(
+                {tag[lab]: post[lab]["kl"] for lab in LABELS}, NAMES, ylabel="KL(posterior || prior) (nats)"
+            ),
+            out / "identifiability_kl.png",
+        )
     )
-    save_figure(plot_marginals_overlay({lab: cal[lab].u for lab in LABELS}, NAMES), out / "posterior_marginals.png")
+    figures.append(
+        save_figure(plot_marginals_overlay({lab: cal[lab].u for lab in LABELS}, NAMES), out / "posterior_marginals.png")
+    )
     for lab in LABELS if args.mode.corners else ():
         js = distinct(cal[lab])
         fig = plot_corner_overlay({lab: cal[lab].u[:, js]}, [NAMES[j] for j in js])
-        save_figure(fig, out / f"posterior_corner_{lab}.png")
+        figures.append(save_figure(fig, out / f"posterior_corner_{lab}.png"))
     cols = {lab: distinct(cal[lab]) for lab in LABELS}
     fig = plot_correlations({lab: post[lab]["corr"] for lab in LABELS}, NAMES, columns=cols)
-    save_figure(fig, out / "posterior_correlation.png")
+    figures.append(save_figure(fig, out / "posterior_correlation.png"))
 
-    summary = identifiability_summary(args, cal, res, pset, loc, post)
-    summary["timings_s"] = T.done()
-    (out / "identifiability_summary.json").write_text(json.dumps(json_safe(summary), indent=1))
-    print(f"  wrote {out / 'identifiability_summary.json'}")
+    path = out / FILES[IdentifiabilityRecord]
+    write_record(path, identifiability_record(args, cal, res, pset, loc, post, [f.name for f in figures], T.done()))
+    print(f"  wrote {path}")
     return 0
 
 

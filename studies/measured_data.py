@@ -1,6 +1,6 @@
 """Real measured data (issue 20): the Mooney-Rivlin matrix calibrated on Treloar's rubber and Budday's brain tissue.
 
-For each case of :data:`bayestissue.workflows.measured.CASES` (Treloar over stretch <= 3 and over its whole range,
+For each case of :data:`bayestissue.analyses.measured.CASES` (Treloar over stretch <= 3 and over its whole range,
 each brain region over its range): least squares and the emcee posterior of mu, kappa and the noise sd (the
 calibration pipeline, matrix-only experiments of data/measured/ under stretch control), the closed-form
 incompressible Mooney-Rivlin least-squares fit beside it, and a figure of the data with the posterior predictive
@@ -8,8 +8,8 @@ band. Writes into --out:
 
 * ``measured_<case>.png``: data, 90 % posterior predictive band of the model curve, both least-squares fits, and the
   residuals against the stretch;
-* ``measured_summary.md`` / ``.json``: per case the range, the fits, the posterior medians and 90 % intervals, the
-  noise sd and the convergence verdict (the JSON feeds REPORT.md's section on real data).
+* ``measured_summary.md`` and ``measured_record.json``: per case the range, the fits, the posterior medians and 90 %
+  intervals, the noise sd and the convergence verdict (the record feeds REPORT.md's section on real data).
 
 The brain cases run the nested engine: at small stretch only mu + kappa is informed and their posteriors are an L
 in (log mu, log kappa) reaching both box edges, which emcee did not mix (below).
@@ -20,7 +20,6 @@ in (log mu, log kappa) reaching both box edges, which emcee did not mix (below).
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
@@ -30,10 +29,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from bayestissue.analyses.measured import CASES, incompressible_fit, incompressible_stress, trimmed  # noqa: E402
+from bayestissue.analyses.records import FILES, MeasuredRecord, MeasuredResult  # noqa: E402
+from bayestissue.io.records import write_record  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.mechanics import plot_stress_stretch  # noqa: E402
 from bayestissue.workflows import config_from_mapping, run_calibration  # noqa: E402
-from bayestissue.workflows.measured import CASES, incompressible_fit, incompressible_stress, trimmed  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 20261125
@@ -109,20 +110,13 @@ def run_case(case, data_dir: Path, key: str, out: Path) -> tuple[str, dict]:
         f"(rms {rms_cf:.3g}) | {best.x[0]:.4g} / {best.x[1]:.4g} (rms {rms_ls:.3g}; bounds: {active})"
         f" | {_interval(q['mu'])} | {_interval(q['kappa'])} | {_interval(q['sd'])} | {verdict} | {seconds:.0f} s |"
     )
-    numbers = {
-        "name": case.name,
-        "material": case.material,
-        "engine": config.engine,
-        "stretch": [float(lam.min()), float(lam.max())],
-        "n": int(lam.size),
-        "closed_form": {"mu": mu_cf, "kappa": kappa_cf, "rms": rms_cf},
-        "least_squares": {"mu": float(best.x[0]), "kappa": float(best.x[1]), "rms": rms_ls,
-                          "active": list(best.active_names())},
-        "posterior": q,
-        "converged": bool(outcome.report.converged),
-        "verdict": verdict,
-        "seconds": seconds,
-    }  # fmt: skip
+    numbers = MeasuredResult(
+        name=case.name, material=case.material, engine=config.engine, stretch=(float(lam.min()), float(lam.max())),
+        n=int(lam.size), closed_form={"mu": mu_cf, "kappa": kappa_cf, "rms": rms_cf},
+        least_squares={"mu": float(best.x[0]), "kappa": float(best.x[1]), "rms": rms_ls},
+        posterior={k: tuple(v) for k, v in q.items()}, converged=bool(outcome.report.converged), verdict=verdict,
+        seconds=seconds,
+    )  # fmt: skip
     return row, numbers
 
 
@@ -137,8 +131,7 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     results = [run_case(case, args.data, key, args.out) for case in CASES]
     rows = [row for row, _ in results]
-    summary = {"mode": key, "cases": [numbers for _, numbers in results]}
-    (args.out / "measured_summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    write_record(args.out / FILES[MeasuredRecord], MeasuredRecord(mode=key, cases=[c for _, c in results]))
     lines = [
         f"# Real measured data: the Mooney-Rivlin matrix (studies/measured_data.py, {key} setting)",
         "",

@@ -1,19 +1,19 @@
-"""Write figures/REPORT.md from the summaries of studies/identifiability.py and studies/t1_vs_t2.py.
+"""Write figures/REPORT.md from the study's records (bayestissue.report: a Jinja2 template over typed records).
 
     python studies/report.py [--out figures]
 
-Every number in the report is read from figures/identifiability_summary.json and figures/t1_vs_t2_summary.json;
-the verdicts are rules on those numbers, stated next to them (bayestissue.workflows.report, one module per section).
+Every number and verdict in the report comes from the records the other stages wrote (identifiability_record.json,
+t1_vs_t2_record.json, and where their stages ran calibration_record.json, controls_record.json and
+measured_record.json); the explanation that does not change lives in docs/report_guide.md.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
-from bayestissue.workflows.report import report_text
+from bayestissue.report import write_report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,11 +25,8 @@ def main(argv=None) -> int:
     ap.add_argument("--full", action="store_true", help="accepted for symmetry with the other studies")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    out = Path(args.out)
-    A = json.loads((out / "identifiability_summary.json").read_text())
-    B = json.loads((out / "t1_vs_t2_summary.json").read_text())
-    (out / "REPORT.md").write_text(report_text(A, B, out))
-    print(f"[report] wrote {out / 'REPORT.md'} in {time.perf_counter() - t0:.1f} s")
+    path = write_report(args.out)
+    print(f"[report] wrote {path} in {time.perf_counter() - t0:.1f} s")
     return 0
 
 

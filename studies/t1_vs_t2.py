@@ -3,14 +3,13 @@
 Overlap of the separate posteriors, cross-prediction, tension of a joint fit, leave-one-experiment-out,
 principal angles; then simulated tests of the causes: (1) loading rate, (2) fibre directions and volume
 fractions (stereology replicates carried into a cut posterior; a free T2 fibre angle), (3) specimen
-differences (a per-specimen stiffness scale). Writes figures/t1_vs_t2_*.png and figures/t1_vs_t2_summary.json.
+differences (a per-specimen stiffness scale). Writes figures/t1_vs_t2_*.png and figures/t1_vs_t2_record.json.
 
     python studies/t1_vs_t2.py [--quick | --full] [--scheduler ADDR] [--n-workers N]
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import matplotlib
@@ -19,8 +18,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-import bayestissue.workflows.discrepancy as dsc  # noqa: E402
-import bayestissue.workflows.identifiability as ids  # noqa: E402
+import bayestissue.analyses.discrepancy as dsc  # noqa: E402
+import bayestissue.analyses.identifiability as ids  # noqa: E402
+from bayestissue.analyses.records import FILES, CrossPrediction, DiscrepancyRecord, Tension  # noqa: E402
 from bayestissue.identifiability import (  # noqa: E402
     bhattacharyya,
     informed_directions,
@@ -30,6 +30,7 @@ from bayestissue.identifiability import (  # noqa: E402
     tension,
 )
 from bayestissue.io.figures import save_figure  # noqa: E402
+from bayestissue.io.records import write_record  # noqa: E402
 from bayestissue.paper import PAPER_BOUNDS  # noqa: E402
 from bayestissue.parallel import fan_out  # noqa: E402
 from bayestissue.plotting.identifiability import (  # noqa: E402
@@ -95,14 +96,20 @@ def main(argv=None) -> int:
     finally:
         ids.close_client(client)
     T.stage("summaries + figures")
-    specimen, cut = dsc.specimen_and_cut(args, outs, cal, chi2, e1, e2, reps, pick)
-    # ---- figures
-    save_figure(plot_marginals_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_marginals.png")
+    specimen, cut, pooled = dsc.specimen_and_cut(args, outs, cal, chi2, e1, e2, reps, pick)
+    figures = []
+    figures.append(
+        save_figure(
+            plot_marginals_overlay({"T1": cal["T1"].u, "T2": cal["T2"].u}, NAMES), out / "t1_vs_t2_marginals.png"
+        )
+    )
     if m.corners:
         js = ids.distinct(cal["T1"])
-        save_figure(
-            plot_corner_overlay({"T1": cal["T1"].u[:, js], "T2": cal["T2"].u[:, js]}, [NAMES[j] for j in js]),
-            out / "t1_vs_t2_corner.png",
+        figures.append(
+            save_figure(
+                plot_corner_overlay({"T1": cal["T1"].u[:, js], "T2": cal["T2"].u[:, js]}, [NAMES[j] for j in js]),
+                out / "t1_vs_t2_corner.png",
+            )
         )
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5))
     for ax, key, exp in (
@@ -123,67 +130,74 @@ def main(argv=None) -> int:
             title=f"{tgt} data, predicted from the {src} posterior",
         )
     fig.tight_layout()
-    save_figure(fig, out / "t1_vs_t2_cross_prediction.png")
+    figures.append(save_figure(fig, out / "t1_vs_t2_cross_prediction.png"))
     names8 = dsc.MIRROR_NAMES
-    save_figure(
-        plot_rate_study(
-            rates["factors"],
-            rates["se_log"],
-            rates["profiles"],
-            {p: float(rates["truth"][names8.index(p)]) for p in dsc.VISC},
-            {p: tuple(PAPER_BOUNDS[names8.index(p)]) for p in dsc.VISC},
-        ),
-        out / "t1_vs_t2_rates.png",
+    figures.append(
+        save_figure(
+            plot_rate_study(
+                rates["factors"],
+                rates["se_log"],
+                rates["profiles"],
+                {p: float(rates["truth"][names8.index(p)]) for p in dsc.VISC},
+                {p: tuple(PAPER_BOUNDS[names8.index(p)]) for p in dsc.VISC},
+            ),
+            out / "t1_vs_t2_rates.png",
+        )
     )
     if cut:
-        save_figure(
-            plot_widths(
-                {
-                    "T1 one replicate (mean)": cut["T1"]["within_width"],
-                    "T1 cut (pooled)": cut["T1"]["cut_width"],
-                    "T2 one replicate (mean)": cut["T2"]["within_width"],
-                    "T2 cut (pooled)": cut["T2"]["cut_width"],
-                },
-                NAMES,
-            ),
-            out / "t1_vs_t2_stereology_widths.png",
+        figures.append(
+            save_figure(
+                plot_widths(
+                    {
+                        "T1 one replicate (mean)": cut.tests["T1"].within_width,
+                        "T1 cut (pooled)": cut.tests["T1"].cut_width,
+                        "T2 one replicate (mean)": cut.tests["T2"].within_width,
+                        "T2 cut (pooled)": cut.tests["T2"].cut_width,
+                    },
+                    NAMES,
+                ),
+                out / "t1_vs_t2_stereology_widths.png",
+            )
         )
-        save_figure(
-            plot_marginals_overlay(
-                {"T1": cut["T1"]["pooled"], "T2": cut["T2"]["pooled"]},
-                NAMES,
-                title="Cut posteriors: pooled over stereology replicates (dotted: the prior)",
-            ),
-            out / "t1_vs_t2_cut_marginals.png",
+        figures.append(
+            save_figure(
+                plot_marginals_overlay(
+                    {"T1": pooled["T1"], "T2": pooled["T2"]},
+                    NAMES,
+                    title="Cut posteriors: pooled over stereology replicates (dotted: the prior)",
+                ),
+                out / "t1_vs_t2_cut_marginals.png",
+            )
         )
 
-    summary = {
-        "mode": m.name,
-        "names": NAMES,
-        "bhattacharyya": bc,
-        "cross_prediction": {k: {kk: v[kk] for kk in ("coverage", "elpd", "n", "n_failed")} for k, v in cp.items()},
-        "tension": ten,
-        "tension_effective": ten_eff,
-        "n_informed_joint": n_inf,
-        "chi2": chi2,
-        "chi2_calibration": {lab: cal[lab].ls_chi2 for lab in ids.LABELS},
-        "chi2_joint_parts": [float(np.sum(res[lab](opt_x["joint"]) ** 2)) for lab in ("T1", "T2")],
-        "chi2_joint_parts_calibration": cal["joint"].chi2_parts,
-        "loo_psis": loo,
-        "principal_angles_deg": angles,
-        "n_informed": {lab: int(np.sum(np.linalg.svd(S[lab], compute_uv=False) > 1)) for lab in S},
-        "rates": rates,
-        "specimen": specimen,
-        "cut": None
-        if cut is None
-        else {
-            k: (v if not isinstance(v, dict) else {kk: vv for kk, vv in v.items() if kk != "pooled"})
-            for k, v in cut.items()
+    def _tension(t):
+        return Tension(Q=t["Q"], df=t["df"], p_value=t["p_value"])
+
+    record = DiscrepancyRecord(
+        mode=m.name,
+        names=list(NAMES),
+        bhattacharyya=bc,
+        cross_prediction={
+            k: CrossPrediction(coverage=v["coverage"], elpd=v["elpd"], n=v["n"], n_failed=v["n_failed"])
+            for k, v in cp.items()
         },
-    }
-    summary["timings_s"] = T.done()
-    (out / "t1_vs_t2_summary.json").write_text(json.dumps(ids.json_safe(summary), indent=1))
-    print(f"  wrote {out / 't1_vs_t2_summary.json'}")
+        tension=_tension(ten),
+        tension_effective=_tension(ten_eff),
+        chi2=chi2,
+        chi2_joint_parts=[float(np.sum(res[lab](opt_x["joint"]) ** 2)) for lab in ("T1", "T2")],
+        loo_khat={lab: v["khat"] for lab, v in loo.items()},
+        principal_angles_deg=angles,
+        n_informed={lab: int(np.sum(np.linalg.svd(S[lab], compute_uv=False) > 1)) for lab in S},
+        rates=dsc.rate_record(rates),
+        scale=specimen["scale"],
+        angle=specimen["angle"],
+        cut=cut,
+        figures=[f.name for f in figures],
+        timings_s=T.done(),
+    )
+    path = out / FILES[DiscrepancyRecord]
+    write_record(path, record)
+    print(f"  wrote {path}")
     return 0
 
 

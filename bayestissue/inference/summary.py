@@ -26,9 +26,12 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 
-__all__ = ["draw_log_likelihood", "generating_fit", "summary_table", "table_markdown"]
+__all__ = ["PRIOR_DOMINATED_CONTRACTION", "draw_log_likelihood", "generating_fit", "summary_table", "table_markdown"]
 
-_EDGE, _PILE, _CONTRACT = 0.02, 0.10, 0.3
+#: A parameter is prior-dominated below this contraction: its posterior variance is more than 70 % of the prior's
+#: in the scaled box (the study's "informed" rule, bayestissue.analyses.verdicts.informed, is its complement).
+PRIOR_DOMINATED_CONTRACTION = 0.3
+_EDGE, _PILE = 0.02, 0.10
 
 
 def _ref_columns(problem, references) -> dict[str, np.ndarray]:
@@ -120,7 +123,7 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
                 flags[j].append("piled_lower")
             if hi_mass[j] > _PILE:
                 flags[j].append("piled_upper")
-            if contraction[j] < _CONTRACT:
+            if contraction[j] < PRIOR_DOMINATED_CONTRACTION:
                 flags[j].append("prior_dominated")
     if report is not None:
         cols.update(ess_bulk=report.ess_bulk, ess_tail=report.ess_tail, rhat=report.rhat)

@@ -6,7 +6,7 @@ being ignored, and a value of the wrong type (``length_x_mm = true``, ``dt_s = "
 converted. The key kinds and checks are :mod:`bayestissue._schema`'s, shared with the calibration configuration.
 What one key cannot say (fractions summing to 1, unit directions, the simulation step against the data's span) is
 checked where the objects are built (:class:`~bayestissue.mechanics.experiment.Experiment`, the protocols,
-:class:`~bayestissue.mechanics.tissue.TissueConfig`). :func:`reference_markdown` renders ``docs/experiment.md``.
+:class:`~bayestissue.mechanics.tissue.TissueConfig`). :func:`experiment_markdown` renders ``docs/experiment.md``.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from bayestissue._schema import Key, check_table, reference_rows
 from bayestissue._validation import check_known_keys
 from bayestissue.mechanics.presets import PRESETS
 
-__all__ = ["TABLES", "PROTOCOL_KEYS", "check_experiment_document", "reference_markdown"]
+__all__ = ["TABLES", "PROTOCOL_KEYS", "check_experiment_document", "experiment_markdown"]
 
 _POSITIVE = {"low": 0.0, "low_open": True}
 
@@ -107,13 +107,13 @@ def check_experiment_document(doc: Mapping, file: str) -> None:
         check_table(table, TABLES[name], f"{file} [{name}]", allowed=allowed)
 
 
-def reference_markdown() -> str:
+def experiment_markdown() -> str:
     """The experiment file reference (``docs/experiment.md``), rendered from :data:`TABLES`."""
     per_kind = "; ".join(f"{kind}: {', '.join(keys[1:]) or 'none'}" for kind, keys in PROTOCOL_KEYS.items())
     lines = [
         "# Experiment file reference",
         "",
-        "<!-- Generated from bayestissue/mechanics/experiment_schema.py (reference_markdown); "
+        "<!-- Generated from bayestissue/mechanics/experiment_schema.py (experiment_markdown); "
         "tests/mechanics/test_experiment_schema.py keeps it equal. -->",
         "",
         "An experiment is a TOML file (e.g. `data/T1.toml`) and, usually, a CSV data file beside it. Unknown tables "

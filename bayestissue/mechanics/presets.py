@@ -71,12 +71,12 @@ def preset(name: str) -> TissuePreset:
     return PRESETS[name]
 
 
-def reference_markdown() -> str:
+def presets_markdown() -> str:
     """``docs/presets.md``: every preset's composition and boxes."""
     lines = [
         "# Tissue presets",
         "",
-        "<!-- Generated from bayestissue/mechanics/presets.py (reference_markdown); "
+        "<!-- Generated from bayestissue/mechanics/presets.py (presets_markdown); "
         "tests/mechanics/test_presets.py keeps it equal. -->",
         "",
         __doc__.strip().split("\n\n", 1)[1].replace("\n", " ").replace("``", "`"),

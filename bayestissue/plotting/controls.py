@@ -10,15 +10,16 @@ from bayestissue.plotting.style import FONT, tidy_axes
 __all__ = ["plot_controls"]
 
 
-def plot_controls(records, table: dict, *, q_threshold: float, label):
-    """(a) the tension Q of every pair (log scale, one dot per noise seed) against the difference threshold;
+def plot_controls(tensions: dict, table: dict, *, q_threshold: float, label):
+    """(a) the tension Q of every pair (``tensions``: scenario -> Q per noise seed; log scale, one dot per seed)
+    against the difference threshold;
     (b) the verdicts per scenario (rows: the scenarios of (a); columns: verdict; cell: number of seeds), each row
     with the number of seeds whose verdict contains the planted causes (or, for the negative control, no
     difference). ``label(key)`` turns a verdict key of ``table`` into the column's text."""
     names = list(table)
     fig, (a, b) = plt.subplots(1, 2, figsize=(13, 0.55 * len(names) + 2.6), width_ratios=[1, 1.35])
     for i, name in enumerate(names):
-        q = [max(r["verdict"]["tension"]["Q"], 0.1) for r in records if r["scenario"] == name]
+        q = [max(x, 0.1) for x in tensions.get(name, ())]
         a.plot(q, np.full(len(q), i) + np.linspace(-0.12, 0.12, len(q)), "o", color="k", ms=5, alpha=0.7)
     a.axvline(q_threshold, color="tab:red", ls="--", lw=1.3)
     a.text(q_threshold * 1.15, len(names) - 0.6, f"difference if Q > {q_threshold:.1f} (p < 0.001)", color="tab:red",

@@ -15,7 +15,7 @@ import numpy as np
 from bayestissue.paper import PAPER_DIRECTIONS
 from bayestissue.stereology.axial import WatsonMixture
 from bayestissue.stereology.lines import segments_from_polylines
-from bayestissue.stereology.micrographs.phantom import clip_segment_to_box
+from bayestissue.stereology.micrographs.geometry import clip_segment_to_box
 from bayestissue.stereology.sections import ratio_ce, surs_indices
 
 __all__ = ["make_counts", "make_lines"]

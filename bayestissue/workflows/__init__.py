@@ -1,15 +1,15 @@
-"""Workflows: the only layer where mechanics meets inference.
+"""Workflows: the calibration pipeline, the one place where mechanics meets inference.
 
 config -> problem -> warm start -> sampler -> result, shared by the CLI (``bayestissue fit``), the studies and the
-dask tasks:
+dask tasks (the study analyses built on it live in :mod:`bayestissue.analyses`, the report in
+:mod:`bayestissue.report`):
 
 * :mod:`~bayestissue.workflows.config` -- the calibration configuration's one typed schema;
 * :mod:`~bayestissue.workflows.forward` -- forward models with specimen-level parameters, scaled residuals;
 * :mod:`~bayestissue.workflows.problem` -- experiments + configuration -> the calibration problem;
 * :mod:`~bayestissue.workflows.calibration` -- the full pipeline with its results files (``run_calibration``);
 * :mod:`~bayestissue.workflows.tasks` -- picklable calibration tasks for the identifiability studies (``run_task``);
-* :mod:`~bayestissue.workflows.scenarios`, :mod:`~bayestissue.workflows.propagate` -- simulated designs and the
-  stereological cut posterior.
+* :mod:`~bayestissue.workflows.run_directory` -- a run's output folder: lock, manifest, resume checks.
 
 Layer: imports io, mechanics, inference and identifiability; never plotting or cli.
 """

@@ -3,7 +3,7 @@
 :func:`check_mapping` refuses an unknown section or key, a value of the wrong type (``"50"`` for a number, ``true``
 for a count: TOML booleans are not integers here) or out of range, naming the file, the section, the key, the value
 and what was expected (the key kinds and checks: :mod:`bayestissue._schema`, shared with the experiment files).
-:func:`reference_markdown` renders the same table as ``docs/config.md`` (a test keeps the two equal), so the
+:func:`config_markdown` renders the same table as ``docs/config.md`` (a test keeps the two equal), so the
 documentation cannot drift from what the code accepts.
 """
 
@@ -20,7 +20,7 @@ from bayestissue.inference.sampling.options import MOVES, PROPOSALS
 #: The sampling engines (``[sampler] engine``).
 ENGINES = ("emcee", "nested")
 
-__all__ = ["ENGINES", "SCHEMA", "Key", "check_mapping", "reference_markdown"]
+__all__ = ["ENGINES", "SCHEMA", "Key", "check_mapping", "config_markdown"]
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -123,12 +123,12 @@ def check_mapping(cfg: Mapping, *, where: str = "configuration") -> None:
         check_table(table, known, f"{where} [{section}]")
 
 
-def reference_markdown() -> str:
+def config_markdown() -> str:
     """The configuration reference (``docs/config.md``), rendered from :data:`SCHEMA`."""
     lines = [
         "# Calibration configuration reference",
         "",
-        "<!-- Generated from bayestissue/workflows/schema.py (reference_markdown); tests/workflows/test_schema.py "
+        "<!-- Generated from bayestissue/workflows/schema.py (config_markdown); tests/workflows/test_schema.py "
         "keeps it equal. -->",
         "",
         "`bayestissue fit EXPERIMENT... --config FILE`: a TOML file; every section and key is optional. Unknown "

@@ -115,10 +115,18 @@ class CalibrationDraws:
     time_ls_s: float = 0.0
     time_mcmc_s: float = 0.0
     experiment_names: tuple = ()
-    sampler: str = "inference.sample_posterior"
+    results_file: str = ""
+    convergence: str = "no verdict (not read from a results file)"
+    converged: bool = False
+    fit: dict = field(default_factory=dict)
     fit_check: str = ""
     n_dropped: int = 0
     tied: dict = field(default_factory=dict)
+
+    @property
+    def misfit(self) -> bool:
+        """The posterior predictive check (:mod:`bayestissue.inference.fit_check`) says MISFIT for an experiment."""
+        return any(v["misfit"] for v in self.fit.values())
 
 
 def _chi2_parts(problem: CalibrationProblem, x) -> np.ndarray:
@@ -236,9 +244,9 @@ def attach_posterior(outcome: CalibrationDraws, path, *, keep: int = 4000) -> Ca
     attribute lists the parameters tied to it), thinned evenly to at most ``keep``; ``u`` is their scaled box;
     ``loglik`` the file's pointwise log-likelihood summed per experiment (its own noise model, e.g.
     a sampled sd); ``rhat`` the file's between-ensemble R-hat (each variable's ``rhat_ensembles`` attribute);
-    ``sampler`` names the file and its convergence verdict, ``fit_check`` its posterior predictive check
-    (:mod:`bayestissue.inference.fit_check`; recomputed for a file written before the check existed). Nuisance draws
-    (noise sd) are dropped.
+    ``results_file``, ``convergence`` and ``converged`` name the file and its convergence verdict; ``fit`` (per
+    experiment) and ``fit_check`` (one line) its posterior predictive check (:mod:`bayestissue.inference.fit_check`,
+    recomputed from the file's predictive draws). Nuisance draws (noise sd) are dropped.
     """
     box = paper_parameter_set()
     if tuple(outcome.names) != box.names:
@@ -265,8 +273,11 @@ def attach_posterior(outcome: CalibrationDraws, path, *, keep: int = 4000) -> Ca
     out.acceptance = float(attrs.get("acceptance_mean", float("nan")))
     out.n_failed = int(attrs.get("n_failed_forward", 0))
     out.time_mcmc_s = float(attrs.get("sampling_time_s", float("nan")))
-    out.sampler = f"{path.name}: {attrs.get('convergence', 'no verdict recorded')}"
-    out.fit_check = str(attrs.get("fit_check") or fit_check_text(fit_check(idata)))
+    out.results_file = path.name
+    out.convergence = str(attrs.get("convergence", "no verdict recorded"))
+    out.converged = bool(attrs.get("converged", 0))
+    out.fit = fit_check(idata)
+    out.fit_check = fit_check_text(out.fit)
     out.tied = tied
     return out
 

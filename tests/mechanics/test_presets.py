@@ -7,7 +7,7 @@ import pytest
 
 from bayestissue._validation import ValidationError
 from bayestissue.mechanics import load_experiment
-from bayestissue.mechanics.presets import PRESETS, reference_markdown
+from bayestissue.mechanics.presets import PRESETS, presets_markdown
 from bayestissue.workflows import config_from_mapping
 from bayestissue.workflows.problem import build_problem
 
@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_reference_is_rendered_from_the_presets():
-    assert (ROOT / "docs" / "presets.md").read_text() == reference_markdown()
+    assert (ROOT / "docs" / "presets.md").read_text() == presets_markdown()
 
 
 def _experiment(tmp_path, tissue: str):

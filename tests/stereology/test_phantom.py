@@ -4,15 +4,14 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
+from bayestissue.stereology.micrographs.geometry import clip_segment_to_box, sample_watson_axes
 from bayestissue.stereology.micrographs.phantom import (
     CAVITY,
     ECM,
     SMC,
     PhantomOptions,
     TissuePhantom,
-    clip_segment_to_box,
     make_phantom,
-    sample_watson_axes,
 )
 
 SMALL = PhantomOptions(extent_um=(30.0, 60.0, 60.0))

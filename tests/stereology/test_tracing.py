@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.stereology.micrographs.phantom import _ellipsoid_voxels
+from bayestissue.stereology.micrographs.geometry import ellipsoid_voxels
 from bayestissue.stereology.micrographs.tip_correction import end_corrected_length, tip_deficit
 from bayestissue.stereology.micrographs.tracing import fit_segment, trace_cells
 
@@ -16,7 +16,7 @@ PLANES = np.floor((np.arange(12) + 0.5) * 5).astype(int)  # 5 um sections of a 1
 def _cell(direction, centre=(50.0, 50.0, 30.0)):
     vol = np.zeros(SHAPE, bool)
     d = np.asarray(direction, float)
-    vol[_ellipsoid_voxels(np.asarray(centre), d / np.linalg.norm(d), 36.0, 3.0, SHAPE, 1.0)] = True
+    vol[ellipsoid_voxels(np.asarray(centre), d / np.linalg.norm(d), 36.0, 3.0, SHAPE, 1.0)] = True
     return vol
 
 
@@ -81,7 +81,7 @@ def test_merged_cells_get_their_length_from_volume():
 
     def add(centre, d):
         d = np.asarray(d, float) / np.linalg.norm(d)
-        vol[_ellipsoid_voxels(np.asarray(centre, float), d, 36.0, 3.0, shape, 1.0)] = True
+        vol[ellipsoid_voxels(np.asarray(centre, float), d, 36.0, 3.0, shape, 1.0)] = True
 
     for y in (10, 25, 40, 55, 70, 85):  # six separate line-like cells: the cross-section
         add((80, y, z), (1, 0, 0))
@@ -144,7 +144,7 @@ def test_bad_core_px():
 def _cell_in(centre, direction, shape):
     vol = np.zeros(shape, bool)
     d = np.asarray(direction, float)
-    vol[_ellipsoid_voxels(np.asarray(centre), d / np.linalg.norm(d), 36.0, 3.0, shape, 1.0)] = True
+    vol[ellipsoid_voxels(np.asarray(centre), d / np.linalg.norm(d), 36.0, 3.0, shape, 1.0)] = True
     return vol
 
 

@@ -16,8 +16,9 @@ from scipy import ndimage
 
 from bayestissue.stereology.axial import axial_angle, fit_watson_mixture
 from bayestissue.stereology.micrographs import analyse_micrographs
+from bayestissue.stereology.micrographs.geometry import ellipsoid_voxels
 from bayestissue.stereology.micrographs.gridcount import count_points
-from bayestissue.stereology.micrographs.phantom import SMC, _ellipsoid_voxels, make_phantom
+from bayestissue.stereology.micrographs.phantom import SMC, make_phantom
 from bayestissue.stereology.micrographs.registration import displacement_error_px
 from bayestissue.stereology.micrographs.render import render_sections, section_phantom, stack_frame
 from bayestissue.stereology.micrographs.segmentation import confusion_matrix, label_fractions
@@ -227,7 +228,7 @@ def grazing_loss(*, thickness_um=5.0, n_offsets=20, core_px=0):
     ratios = []
     for h in np.arange(n_offsets) * thickness_um / n_offsets:
         vol = np.zeros(shape, bool)
-        vol[_ellipsoid_voxels(np.array([45.0, 10.0, 20.0 + h]), np.array([1.0, 0, 0]), a, b, shape, 1.0)] = True
+        vol[ellipsoid_voxels(np.array([45.0, 10.0, 20.0 + h]), np.array([1.0, 0, 0]), a, b, shape, 1.0)] = True
         planes = np.floor((np.arange(int(shape[0] // thickness_um)) + 0.5) * thickness_um).astype(int)
         tc = trace_cells(vol[planes], spacing_um=(thickness_um, 1.0, 1.0), piece_length_um=200.0,
                          core_px=core_px)  # fmt: skip

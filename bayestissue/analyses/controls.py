@@ -18,20 +18,10 @@ Each pair is analysed by least squares in the mirror model (8 material parameter
 T1 alone, T2 alone, both with shared parameters, and a *cause model* per cause and per pair of causes, fitted to
 both tests: (1) the two-branch law shared by both, (2) a free T2 fibre half-angle, (3) a T2 stiffness scale
 (:class:`~bayestissue.workflows.forward.SpecimenForward`), and (1+2), (1+3), (2+3) together. The decision rules
-(:func:`verdict`):
-
-* **difference**: the tension :math:`Q = \chi^2_{joint} - \chi^2_{T1} - \chi^2_{T2}` has
-  :math:`p < 0.001` against :math:`\chi^2_8` (:data:`P_TENSION`); otherwise the verdict is *no difference*.
-* a cause model **explains** the difference if it is preferred over the shared fit by BIC
-  (:math:`\Delta\chi^2 - k \ln n > 10`, :data:`DBIC`; k its extra parameters) and its remaining tension
-  :math:`\chi^2_{cause} - \chi^2_{T1} - \chi^2_{T2}` has :math:`p \ge 0.001` against :math:`\chi^2_{8 - k_s}`
-  (:math:`k_s` its specimen-level parameters: 1 for causes 2 and 3; cause 1's extra parameters are shared).
-* single causes first: the verdict names the explaining cause with the lowest :math:`\chi^2` and every other
-  explaining cause within :data:`DCHI2_TIE` of it (the data cannot tell those apart: *indistinguishable*).
-* if no single cause explains, pairs: a pair explains if it meets the rule above and improves on each of its two
-  single-cause models by BIC > 10 (both causes are needed); named like the singles (*combination*).
-* if nothing explains, the verdict names the single causes preferred by BIC as *partial*; if none is preferred,
-  *unexplained*.
+are :func:`bayestissue.analyses.verdicts.controls_verdict` (their thresholds are named there): a *difference* if the
+tension has p < 0.001; a cause model *explains* it if BIC prefers it by more than 10 and its remaining tension has
+p >= 0.001 (against :math:`\chi^2_{8 - k_s}`, :math:`k_s` its specimen-level parameters: 1 for causes 2 and 3;
+cause 1's extra parameters are shared); single causes first, then pairs that need both causes.
 
 The single-cause rules and every threshold were fixed before the scenarios were first run; the pair step was added
 after that run, in which the combination scenario could not be named (0 of 5: no two-cause model), with the
@@ -45,7 +35,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from bayestissue.identifiability import tension
+from bayestissue.analyses.verdicts import CAUSE_MODELS, ControlsVerdict, controls_verdict
 from bayestissue.inference import fit_least_squares
 from bayestissue.inference.warmstart import latin_hypercube
 from bayestissue.mechanics import Experiment, simulate
@@ -58,18 +48,15 @@ from bayestissue.workflows.problem import build_problem
 
 __all__ = [
     "BASE_PARAMETERS",
-    "CAUSES",
-    "DBIC",
-    "MODELS",
-    "DCHI2_TIE",
-    "P_TENSION",
+    "N_SHARED",
+    "NOISE_SD_MM",
     "SCENARIOS",
     "Scenario",
+    "analyse_data",
     "analyse_pair",
-    "confusion",
     "make_pair",
-    "verdict",
-    "verdict_text",
+    "pair_verdict",
+    "run_case",
 ]
 
 #: The one tissue: paper Table 1, T1 estimates, with beta3 = beta2 (mirror-symmetric).
@@ -78,14 +65,8 @@ BASE_PARAMETERS[10] = BASE_PARAMETERS[7]
 BASE_PARAMETERS.setflags(write=False)
 #: Noise sd of the pairs (mm), as the replicas.
 NOISE_SD_MM = 0.02
-#: Decision rules (module docstring), fixed before the scenarios were run.
-P_TENSION = 1e-3
-DBIC = 10.0
-DCHI2_TIE = 10.0
 #: Shared material parameters of the mirror model (the tension's degrees of freedom).
 N_SHARED = 8
-#: Cause number -> short name.
-CAUSES = {1: "fibre law", 2: "fibre angle", 3: "specimen stiffness"}
 #: Families that get a second branch (the mirror pair) and that branch's start in the cause-1 fit.
 BRANCHED = (2, 3)
 _BRANCH_START = (0.01, 0.5, 0.05)
@@ -142,10 +123,10 @@ def _noisy(e: Experiment, tissue, params, rng) -> Experiment:
         displacement_mm=y,
         noise_sd_mm=NOISE_SD_MM,
         synthetic=True,
-        description=f"SYNTHETIC control pair ({e.name}-like test; bayestissue.workflows.controls), not measured data",
+        description=f"SYNTHETIC control pair ({e.name}-like test; bayestissue.analyses.controls), not measured data",
         source=None,
         data_file=None,
-        meta={"synthetic": "yes -- control pair (bayestissue.workflows.controls)"},
+        meta={"synthetic": "yes -- control pair (bayestissue.analyses.controls)"},
     )
 
 
@@ -186,7 +167,6 @@ def _fit(experiments, starts, *, tied=MIRROR_TIES, specimen=None, n_lhs=0, seed=
 
 
 #: Cause models: key -> causes it contains (singles, then pairs).
-MODELS = {"1": (1,), "2": (2,), "3": (3,), "1+2": (1, 2), "1+3": (1, 3), "2+3": (2, 3)}
 
 
 def _cause_model(e1, e2, optima, causes, seed):
@@ -204,7 +184,7 @@ def _cause_model(e1, e2, optima, causes, seed):
 
 
 def analyse_pair(e1: Experiment, e2: Experiment, *, seed: int = 0) -> dict:
-    """Least squares of the pair: T1, T2, joint, and the cause models of :data:`MODELS` (module docstring).
+    """Least squares of the pair: T1, T2, joint, and the cause models of :data:`CAUSE_MODELS` (module docstring).
 
     Starts: the paper's initial guess and 4 Latin-hypercube points for each test alone; for the joint fit those
     two optima, the initial guess and 2 more points; each cause model from the joint and the two separate optima
@@ -219,98 +199,20 @@ def analyse_pair(e1: Experiment, e2: Experiment, *, seed: int = 0) -> dict:
     cj, xj = _fit([e1, e2], [init, x1, x2], n_lhs=2, seed=seed + 2)
     fit = {
         "chi2": {"T1": c1, "T2": c2, "joint": cj},
-        "extra": {k: 3 * (1 in c) + (2 in c) + (3 in c) for k, c in MODELS.items()},
-        "specimen": {k: (2 in c) + (3 in c) for k, c in MODELS.items()},
+        "extra": {k: 3 * (1 in c) + (2 in c) + (3 in c) for k, c in CAUSE_MODELS.items()},
+        "specimen": {k: (2 in c) + (3 in c) for k, c in CAUSE_MODELS.items()},
         "n": int(e1.time_s.size + e2.time_s.size),
     }
-    singles = [k for k, c in MODELS.items() if len(c) == 1]
+    singles = [k for k, c in CAUSE_MODELS.items() if len(c) == 1]
     for key in singles:
-        fit["chi2"][key], x = _cause_model(e1, e2, (xj, x1, x2), MODELS[key], seed + 3)
+        fit["chi2"][key], x = _cause_model(e1, e2, (xj, x1, x2), CAUSE_MODELS[key], seed + 3)
         if key in ("2", "3"):
             fit["angle_deg" if key == "2" else "scale"] = float(x[-1])
-    if verdict(fit)["kind"] in ("no difference", "named", "indistinguishable"):
+    if pair_verdict(fit).kind in ("no difference", "named", "indistinguishable"):
         return fit  # the rules never look at the pairs then
-    for key in (k for k in MODELS if k not in singles):
-        fit["chi2"][key], _ = _cause_model(e1, e2, (xj, x1, x2), MODELS[key], seed + 3)
+    for key in (k for k in CAUSE_MODELS if k not in singles):
+        fit["chi2"][key], _ = _cause_model(e1, e2, (xj, x1, x2), CAUSE_MODELS[key], seed + 3)
     return fit
-
-
-def _named(c: dict, keys) -> tuple[str, ...]:
-    best = min(c[k] for k in keys)
-    return tuple(sorted(k for k in keys if c[k] - best < DCHI2_TIE))
-
-
-def verdict(fit: dict) -> dict:
-    """The decision rules of the module docstring applied to one :func:`analyse_pair` result.
-
-    Returns ``different`` (bool), ``tension`` (Q, p), per cause model (key of :data:`MODELS`) ``delta_bic``,
-    ``remaining_p``, ``preferred``, ``explains``; ``named`` (tuple of causes, ints) and ``kind`` ("no
-    difference", "named", "indistinguishable", "combination", "partial", "unexplained").
-    """
-    c = fit["chi2"]
-    parts = [c["T1"], c["T2"]]
-    t = tension(c["joint"], parts, N_SHARED)
-    out = {"tension": {"Q": t["Q"], "p": t["p_value"]}, "different": t["p_value"] < P_TENSION, "causes": {}}
-    fitted = [k for k in MODELS if k in c]
-    bic = {k: c[k] + fit["extra"][k] * np.log(fit["n"]) for k in fitted}
-    for k in fitted:
-        dbic = c["joint"] - bic[k]  # BIC of the shared fit (no extra parameters) minus the cause model's
-        rem = tension(c[k], parts, N_SHARED - fit["specimen"][k])
-        needed = all(bic[str(s)] - bic[k] > DBIC for s in MODELS[k]) if len(MODELS[k]) > 1 else True
-        out["causes"][k] = {
-            "delta_chi2": float(c["joint"] - c[k]),
-            "delta_bic": float(dbic),
-            "remaining_Q": rem["Q"],
-            "remaining_p": rem["p_value"],
-            "preferred": bool(dbic > DBIC),
-            "explains": bool(dbic > DBIC and rem["p_value"] >= P_TENSION and needed),
-        }
-    out["named"], out["kind"] = (), "no difference"
-    if not out["different"]:
-        return out
-    singles = [k for k in fitted if len(MODELS[k]) == 1]
-    pairs = [k for k in fitted if len(MODELS[k]) == 2]
-    for keys, one, several in ((singles, "named", "indistinguishable"),
-                               (pairs, "combination", "indistinguishable combinations")):  # fmt: skip
-        explaining = [k for k in keys if out["causes"][k]["explains"]]
-        if explaining:
-            named = _named(c, explaining)
-            out["named"] = tuple(sorted({cause for k in named for cause in MODELS[k]}))
-            out["kind"] = one if len(named) == 1 else several
-            out["models"] = list(named)
-            return out
-    preferred = tuple(int(k) for k in ("1", "2", "3") if out["causes"][k]["preferred"])
-    out["named"], out["kind"] = preferred, "partial" if preferred else "unexplained"
-    return out
-
-
-def confusion(records) -> dict:
-    """Per scenario: how often each verdict set came out, how often each planted cause was named (alone or among
-    indistinguishable ones) and how often the negative control was called a difference.
-
-    ``records``: dicts with ``scenario`` (name), ``planted`` (tuple) and ``verdict`` (:func:`verdict`)."""
-    table = {}
-    for r in records:
-        row = table.setdefault(r["scenario"], {"planted": tuple(r["planted"]), "n": 0, "verdicts": {}, "named": 0})
-        v = r["verdict"]
-        key = "none" if not v["different"] else ("+".join(map(str, v["named"])) or "unexplained") + f" ({v['kind']})"
-        row["n"] += 1
-        row["verdicts"][key] = row["verdicts"].get(key, 0) + 1
-        planted = set(r["planted"])
-        ok = (not v["different"]) if not planted else (v["different"] and planted <= set(v["named"]))
-        row["named"] += int(ok)
-    return table
-
-
-def verdict_text(key: str, *, sep: str = " ") -> str:
-    """A verdict key of :func:`confusion` in words, e.g. ``"2+3 (indistinguishable)"`` -> ``"fibre angle + specimen
-    stiffness (indistinguishable)"`` (``sep`` before the bracket)."""
-    if key == "none":
-        return "no difference"
-    named, _, kind = key.partition(" (")
-    if named == "unexplained":
-        return "unexplained"
-    return " + ".join(CAUSES[int(k)] for k in named.split("+")) + f"{sep}({kind.rstrip(')')})"
 
 
 def run_case(scenario: Scenario, seed: int, t1: Experiment, t2: Experiment) -> dict:
@@ -323,3 +225,9 @@ def run_case(scenario: Scenario, seed: int, t1: Experiment, t2: Experiment) -> d
 def analyse_data(t1: Experiment, t2: Experiment) -> dict:
     """The same analysis on the data files themselves (a task for the study's fan-out)."""
     return {"scenario": "data", "planted": [], "seed": 0, "fit": analyse_pair(t1, t2, seed=0)}
+
+
+def pair_verdict(fit: dict) -> ControlsVerdict:
+    """The controlled rules (:func:`bayestissue.analyses.verdicts.controls_verdict`) on one :func:`analyse_pair`
+    result."""
+    return controls_verdict(fit["chi2"], fit["extra"], fit["specimen"], fit["n"], n_shared=N_SHARED)

@@ -2,7 +2,7 @@
 cut posterior and a free fibre angle (cause 2), a specimen stiffness scale (cause 3).
 
 Used by ``studies/t1_vs_t2.py``; builds on the identifiability study's calibrations and profiles
-(:mod:`bayestissue.workflows.identifiability`).
+(:mod:`bayestissue.analyses.identifiability`).
 """
 
 from __future__ import annotations
@@ -13,6 +13,18 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
+from bayestissue.analyses.calibration_study import mirror_coordinates
+from bayestissue.analyses.identifiability import (
+    MAX_RESTARTS,
+    NAMES,
+    cached_map,
+    interior,
+    profile_interval,
+    profile_options,
+)
+from bayestissue.analyses.propagate import half_angles_deg, interval_width, pool_draws, replicate_tissues
+from bayestissue.analyses.records import CutPosterior, CutTest, RateProfile, RateStudy, SpecimenModel, Tension
+from bayestissue.analyses.scenarios import ramp_scenario, synthetic_replica
 from bayestissue.identifiability import (
     analyse_sensitivities,
     bhattacharyya,
@@ -26,18 +38,15 @@ from bayestissue.identifiability import (
 from bayestissue.identifiability.restarts import profile_all
 from bayestissue.mechanics import simulate
 from bayestissue.paper import MIRROR_TIES, PAPER_BOUNDS, PAPER_HALF_ANGLE_DEG
-from bayestissue.workflows.calibration_study import mirror_coordinates
 from bayestissue.workflows.forward import MIRROR_NAMES, ExperimentResiduals, MirrorResiduals
-from bayestissue.workflows.identifiability import MAX_RESTARTS, NAMES, cached_map, interior, profile_options
 from bayestissue.workflows.problem import paper_parameter_set
-from bayestissue.workflows.propagate import half_angles_deg, interval_width, pool_draws, replicate_tissues
-from bayestissue.workflows.scenarios import ramp_scenario, synthetic_replica
 from bayestissue.workflows.tasks import CalibrationTask, drop_stuck_draws
 
 __all__ = [
     "VISC",
     "MIRROR_NAMES",
     "cross_predict",
+    "rate_record",
     "rate_study",
     "replicate_tasks",
     "specimen_and_cut",
@@ -74,17 +83,18 @@ def rate_study(args, client, e2, truth):
     traded one family's viscosity for the other's, which made their classification jump between rates).
     Gauss-Newton sd of log gamma2, log beta2 at every rate; profiles of gamma2 and beta2 at the profiled rates,
     restarted from every improvement until none improves (cap
-    :data:`~bayestissue.workflows.identifiability.MAX_RESTARTS`)."""
+    :data:`~bayestissue.analyses.identifiability.MAX_RESTARTS`)."""
     m = args.mode
     free = [NAMES.index(n) for n in MIRROR_NAMES]  # the mirror model's columns among the paper's 11
     lo, hi = PAPER_BOUNDS[free, 0], PAPER_BOUNDS[free, 1]
     t8 = interior(np.asarray(truth, dtype=float)[free], lo, hi)
     idx = [MIRROR_NAMES.index(p) for p in VISC]
     se = {p: [] for p in VISC}
-    scen = []
+    scen, ramp_s = [], []
     for i, f in enumerate(m.rate_factors):
         exp = synthetic_replica(ramp_scenario(e2, f), MirrorResiduals.expand(t8), sd=0.02, rng=args.seed + 100 + i)
         scen.append(exp)
+        ramp_s.append(float(exp.time_s[-1] - exp.protocol.hold_s))
         S = scaled_sensitivities(lambda t, e=exp: simulate(e, MirrorResiduals.expand(t)), t8, noise_sd=0.02)
         a = analyse_sensitivities(S, t8, MIRROR_NAMES, max_size=2)
         for p, j in zip(VISC, idx, strict=True):
@@ -108,7 +118,20 @@ def rate_study(args, client, e2, truth):
         for p, pr in zip(VISC, ps.profiles, strict=True):
             cls[f][p] = pr.classification
             cls[f][f"ci_{p}"] = pr.ci
-    return {"factors": list(m.rate_factors), "se_log": se, "profiles": cls, "truth": truth, "model": "mirror"}
+    return {"factors": list(m.rate_factors), "ramp_s": ramp_s, "se_log": se, "profiles": cls, "truth": truth}
+
+
+def rate_record(rates: dict) -> RateStudy:
+    """The rate study of :func:`rate_study` as its record."""
+    profiles = {
+        f"{f:g}": RateProfile(
+            n_restarts=pr["n_restarts"], improvements=pr["improvements"], converged=pr["converged"],
+            classification={p: pr[p] for p in VISC}, ci={p: profile_interval(pr[f"ci_{p}"]) for p in VISC},
+        )
+        for f, pr in rates["profiles"].items()
+    }  # fmt: skip
+    return RateStudy(factors=rates["factors"], ramp_s=rates["ramp_s"], se_log=rates["se_log"], profiles=profiles,
+                     truth=list(rates["truth"]))  # fmt: skip
 
 
 def replicate_tasks(args, cal, e1, e2):
@@ -189,56 +212,43 @@ def specimen_tasks(args, opt_x: dict, e1, e2) -> list:
     return spec_tasks
 
 
-def specimen_and_cut(args, outs, cal, chi2: dict, e1, e2, reps, pick) -> tuple[dict, dict | None]:
-    """Summaries of the specimen-level fits (``outs[0]`` scale, ``outs[1]`` angle: likelihood ratio, BIC, remaining
-    tension) and of the cut posterior over the stereology replicates (``outs[2:]``: widths with and without the
-    stereological uncertainty, overlap of the pooled posteriors)."""
+def specimen_and_cut(args, outs, cal, chi2: dict, e1, e2, reps, pick) -> tuple[dict, CutPosterior | None, dict]:
+    """The specimen-level fits (``outs[0]`` scale, ``outs[1]`` angle: likelihood ratio, BIC, remaining tension) as
+    :class:`SpecimenModel` by name, and the cut posterior over the stereology replicates (``outs[2:]``: widths
+    with and without the stereological uncertainty, overlap of the pooled posteriors), with its pooled draws by
+    test for the figures (empty without replicates)."""
     m = args.mode
     scale, angle = outs[0], outs[1]
     rep_out = [drop_stuck_draws(o) for o in outs[2:]]
     n_tot = e1.time_s.size + e2.time_s.size
-    specimen = {}
-    for lab, o in (("scale", scale), ("angle", angle)):
-        d = chi2["joint"] - o.ls_chi2
-        specimen[lab] = {
-            "estimate": float(o.ls_x[-1]),
-            "chi2": o.ls_chi2,
-            "chi2_parts": o.chi2_parts,
-            "delta_chi2": float(d),
-            "lr_p": float(chi2_dist.sf(max(d, 0), 1)),
-            "delta_bic": float(d - np.log(n_tot)),
-            "remaining_tension": tension(o.ls_chi2, [chi2["T1"], chi2["T2"]], 10),
-            "ls_x": o.ls_x,
-        }
-    cut = None
+    cut, pooled, z = None, {}, None
     if rep_out:
-        cut = {}
+        tests = {}
         for lab in ("T1", "T2"):
             rr = [o for o in rep_out if o.label.startswith(lab)]
-            pooled = pool_draws([o.u for o in rr], rng=args.seed)
+            pooled[lab] = pool_draws([o.u for o in rr], rng=args.seed)
             ls_u = paper_parameter_set().to_unit(np.array([o.ls_x for o in rr]))
-            cut[lab] = {
-                "pooled": pooled,
-                "base_width": interval_width(cal[lab].u),
-                "cut_width": interval_width(pooled),
-                "within_width": np.mean([interval_width(o.u) for o in rr], axis=0),
-                "ls_u_spread": ls_u.max(0) - ls_u.min(0),
-                "ls_chi2": [o.ls_chi2 for o in rr],
-                "rhat": None,
-                "acceptance": float(np.mean([o.acceptance for o in rr])),
-                "coordinates": mirror_coordinates(lab),
-            }
-        cut["steps"] = m.replicate_steps
-        cut["adapt"] = list(m.replicate_adapt)
-        cut["bc_pooled"] = bhattacharyya(cut["T1"]["pooled"], cut["T2"]["pooled"], n_bins=30)
+            tests[lab] = CutTest(
+                base_width=interval_width(cal[lab].u), cut_width=interval_width(pooled[lab]),
+                within_width=np.mean([interval_width(o.u) for o in rr], axis=0),
+                ls_u_spread=ls_u.max(0) - ls_u.min(0), acceptance=float(np.mean([o.acceptance for o in rr])),
+                coordinates=mirror_coordinates(lab),
+            )  # fmt: skip
         ang = half_angles_deg(reps["directions"])
-        cut["half_angle_mean"] = float(ang.mean())
-        cut["half_angle_sd"] = float(ang.std(ddof=1))
-        cut["half_angles_used"] = ang[pick].tolist()
-        cut["phi_fibre_sd"] = np.std(reps["phi_fibres"], axis=0, ddof=1).tolist()
-        cut["n_replicates_table"] = int(len(ang))
-        cut["n_used"] = int(len(pick))
-        specimen["angle"]["z_vs_stereology"] = float(
-            (specimen["angle"]["estimate"] - PAPER_HALF_ANGLE_DEG) / max(cut["half_angle_sd"], 1e-9)
-        )
-    return specimen, cut
+        cut = CutPosterior(
+            tests=tests, steps=m.replicate_steps, adapt=list(m.replicate_adapt),
+            bc_pooled=bhattacharyya(pooled["T1"], pooled["T2"], n_bins=30), half_angle_mean=float(ang.mean()),
+            half_angle_sd=float(ang.std(ddof=1)), phi_fibre_sd=np.std(reps["phi_fibres"], axis=0, ddof=1),
+            n_replicates_table=int(len(ang)), n_used=int(len(pick)),
+        )  # fmt: skip
+        z = float((float(angle.ls_x[-1]) - PAPER_HALF_ANGLE_DEG) / max(cut.half_angle_sd, 1e-9))
+    specimen = {}
+    for lab, o, zz in (("scale", scale, None), ("angle", angle, z)):
+        d = chi2["joint"] - o.ls_chi2
+        rem = tension(o.ls_chi2, [chi2["T1"], chi2["T2"]], 10)
+        specimen[lab] = SpecimenModel(
+            estimate=float(o.ls_x[-1]), chi2=o.ls_chi2, delta_chi2=float(d), lr_p=float(chi2_dist.sf(max(d, 0), 1)),
+            delta_bic=float(d - np.log(n_tot)), remaining=Tension(rem["Q"], rem["df"], rem["p_value"]),
+            z_vs_stereology=zz,
+        )  # fmt: skip
+    return specimen, cut, pooled

@@ -1,15 +1,13 @@
 """The real-data study's pieces: the bundled measured curves, range trimming, the closed-form incompressible
-Mooney-Rivlin fit, and the report section written from the study's numbers."""
+Mooney-Rivlin fit."""
 
-import json
 from pathlib import Path
 
 import numpy as np
 
+from bayestissue.analyses.measured import CASES, incompressible_fit, incompressible_stress, trimmed
 from bayestissue.io.tables import read_table
 from bayestissue.mechanics import load_experiment
-from bayestissue.workflows.measured import CASES, incompressible_fit, incompressible_stress, trimmed
-from bayestissue.workflows.report.measured import measured_section
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "measured"
 
@@ -42,27 +40,3 @@ def test_incompressible_fit_recovers_exact_constants():
     lam = np.linspace(1.02, 3.0, 12)
     mu, kappa, rms = incompressible_fit(lam, incompressible_stress(lam, 210.0, -35.0))
     assert abs(mu - 210.0) < 1e-9 and abs(kappa + 35.0) < 1e-9 and rms < 1e-9
-
-
-def test_measured_section_from_numbers(tmp_path):
-    def case(name, material, top, sd, kappa_cf):
-        return {
-            "name": name, "material": material, "engine": "emcee", "stretch": [1.02, top], "n": 8,
-            "closed_form": {"mu": 208.7, "kappa": kappa_cf, "rms": 8.9},
-            "least_squares": {"mu": 208.7, "kappa": 207.6, "rms": 8.9, "active": []},
-            "posterior": {"mu": [209.5, 184.5, 236.6], "kappa": [206.0, 151.8, 255.4], "sd": [sd, sd / 2, sd * 2]},
-            "converged": True, "verdict": "CONVERGED: ...", "seconds": 12.0,
-        }  # fmt: skip
-
-    S = {"mode": "default", "cases": [case("treloar_to_3", "rubber", 2.42, 10.0, 207.7),
-                                      case("treloar_all", "rubber", 7.6, 840.0, -1502.0)]}  # fmt: skip
-    (tmp_path / "measured_summary.json").write_text(json.dumps(S))
-    lines = []
-    measured_section(tmp_path, lines.append)
-    text = "\n".join(lines)
-    assert "84 times larger" in text and "(-1.5e+03 kPa)" in text
-    assert "; both inside the posterior's 90 % intervals" in text  # 208.7 / 207.7 in [184.5, 236.6] / [151.8, 255.4]
-    assert text.count("| rubber |") == 2
-    empty = []
-    measured_section(tmp_path / "missing", empty.append)
-    assert empty == []

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bayestissue.analyses.verdicts import BOUND_EDGE, BOUND_SHARE
 from bayestissue.identifiability import (
     ProfileOptions,
     analyse_sensitivities,
@@ -34,6 +35,7 @@ from bayestissue.workflows.forward import ExperimentResiduals
 from bayestissue.workflows.tasks import CalibrationTask, attach_posterior, drop_stuck_draws, run_task
 
 __all__ = [
+    "FIBRE1_NAMES",
     "LABELS",
     "MAX_RESTARTS",
     "MODES",
@@ -53,18 +55,20 @@ __all__ = [
     "experiments",
     "fibre1_tension_share",
     "interior",
-    "json_safe",
     "local_analyses",
     "parse_args",
     "posterior_file",
     "posterior_measures",
     "profile_options",
+    "profile_interval",
     "profiles",
     "residuals_for",
 ]
 
 NAMES = param_names()
 LABELS = ("T1", "T2", "joint")
+#: Fibre family 1 (across the load): its parameters must stay uninformed by x tests (the sanity check).
+FIBRE1_NAMES = ("ginf1", "gamma1", "beta1")
 #: The posteriors analysed here are the calibration stage's mirror-model runs (family 3 tied to family 2;
 #: studies/calibrate.py), reported for all 11 parameters (ginf3, gamma3, beta3 repeat family 2's draws).
 POSTERIOR_RUNS = {"T1": "T1_mirror", "T2": "T2_mirror", "joint": "joint_mirror"}
@@ -333,6 +337,11 @@ def profiles(args, client, res, cal):
     return out
 
 
+def profile_interval(ci) -> tuple[float | None, float | None]:
+    """A profile's 95 % interval with each open side (NaN from the profile) as None."""
+    return tuple(None if c is None or not np.isfinite(c) else float(c) for c in ci)
+
+
 def distinct(outcome) -> list[int]:
     """Columns of the parameters that are sampled, not tied (a tied column repeats its target)."""
     return [j for j, n in enumerate(NAMES) if n not in outcome.tied]
@@ -344,21 +353,6 @@ def posterior_measures(cal):
         u = cal[lab].u
         c = contraction(u, prior_var=np.full(u.shape[1], 1 / 12))
         kl = kl_divergence(u, prior_logpdf=lambda x: np.zeros_like(x), n_bins=30)
-        fl = bound_flags(u, 0.0, 1.0)
+        fl = bound_flags(u, 0.0, 1.0, edge=BOUND_EDGE, min_share=BOUND_SHARE)
         out[lab] = {"contraction": c, "kl": kl, "flags": fl, "corr": correlation_matrix(u)}
     return out
-
-
-def json_safe(x):
-    """JSON-friendly values: arrays and numpy scalars as lists and floats, non-finite floats as None / "inf"."""
-    if isinstance(x, dict):
-        return {str(k): json_safe(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [json_safe(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return json_safe(x.tolist())
-    if isinstance(x, np.generic):
-        return json_safe(x.item())
-    if isinstance(x, float) and not np.isfinite(x):
-        return None if np.isnan(x) else ("inf" if x > 0 else "-inf")
-    return x

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayestissue.inference.summary import generating_fit
+from bayestissue.analyses import verdicts
+from bayestissue.analyses.records import CalibrationRun, ParameterRow
+from bayestissue.inference.summary import draw_log_likelihood, generating_fit
 from bayestissue.paper import MIRROR_TIES
 
 __all__ = [
@@ -20,8 +22,9 @@ __all__ = [
     "MIRROR_COORDINATES",
     "MIRROR_SAMPLER",
     "MODELS",
-    "MODES",
+    "BUDGETS",
     "SEED",
+    "calibration_run",
     "generating_cost",
     "generating_line",
     "mirror_coordinates",
@@ -73,7 +76,7 @@ MIRROR_CAPS = {"T1": 9000, "T2": 6000, "joint": 9000}
 #: Mixture adaptation of the default mirror runs where it differs from MIRROR_SAMPLER (see above).
 MIRROR_ADAPT = {"joint": {"adapt_rounds": 3, "adapt_steps": 1000}}
 
-MODES = {
+BUDGETS = {
     "quick": {
         "n_starts": 1,
         "ls_max_nfev": 100,
@@ -105,7 +108,7 @@ def recovery_lines(name, outcome) -> list[str]:
     for i, p in enumerate(cols["parameter"]):
         g = cols["generating"][i]
         inside = cols["q05"][i] <= g <= cols["q95"][i]
-        informed = cols["contraction"][i] >= 0.3
+        informed = verdicts.informed(cols["contraction"][i])
         lines.append(
             f"| {name} | {p} | {g:.4g} | {cols['q05'][i]:.4g} - {cols['q95'][i]:.4g} | "
             f"{'yes' if inside else 'NO'} | {cols['contraction'][i]:.2f} | "
@@ -160,7 +163,7 @@ def mirror_coordinates(exp_name: str) -> str:
 def study_config(key: str, model: str, exp_name: str) -> dict:
     """Keyword arguments of :func:`~bayestissue.workflows.config.config_from_mapping` for the run ``exp_name``
     (``T1``, ``T2``, ``joint``) of ``model`` at budget ``key``."""
-    mode, model_cfg = dict(MODES[key]), dict(MODELS[model])
+    mode, model_cfg = dict(BUDGETS[key]), dict(MODELS[model])
     if model == "full":
         mode["sampler"] = {**mode["sampler"], **FULL_SAMPLER[key]}
     if model == "mirror":
@@ -181,3 +184,37 @@ def generating_cost(outcome, name) -> float:
     full = np.asarray(refs["generating"], dtype=float)
     theta = np.array([full[mat.names.index(n)] for n in mat.sampled_names])
     return 0.5 * float(np.sum(problem.residuals(theta[None, :]) ** 2))
+
+
+def calibration_run(outcome, experiments, model: str, seconds: float) -> CalibrationRun:
+    """The calibration record's entry for one run: verdicts, the posterior table and the draws' log-likelihood."""
+    cols, meta = outcome.table["columns"], outcome.table["meta"]
+    gen = cols.get("generating")
+    rows = [
+        ParameterRow(
+            name=str(n), unit=str(cols["unit"][j]), generating=None if gen is None else float(gen[j]),
+            q05=float(cols["q05"][j]), median=float(cols["median"][j]), q95=float(cols["q95"][j]),
+            rhat=float(cols["rhat"][j]), contraction=float(cols["contraction"][j]), lower=float(cols["lower"][j]),
+            upper=float(cols["upper"][j]),
+        )
+        for j, n in enumerate(cols["parameter"])
+    ] if "q05" in cols else []  # fmt: skip
+    ll = None
+    if outcome.idata is not None and "log_likelihood" in outcome.idata.groups():
+        ll = draw_log_likelihood(outcome.idata)
+    check = outcome.fit_check or {}
+    report = outcome.report
+    return CalibrationRun(
+        experiments=list(experiments),
+        model=model,
+        engine=outcome.config.engine if report is not None else "least squares",
+        converged=None if report is None else bool(report.converged),
+        convergence=meta.get("convergence", "not sampled"),
+        misfit=any(c["misfit"] for c in check.values()) if check else None,
+        fit_check=str(meta.get("fit_check", "")),
+        parameters=rows,
+        loglik_q05=None if ll is None else float(np.percentile(ll, 5)),
+        loglik_q95=None if ll is None else float(np.percentile(ll, 95)),
+        loglik_max=None if ll is None else float(ll.max()),
+        seconds=float(seconds),
+    )

@@ -1,0 +1,48 @@
+"""The records a report is rendered from: read from a study's output folder, each checked against its schema."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from bayestissue.analyses.identifiability import LABELS
+from bayestissue.analyses.records import (
+    FILES,
+    CalibrationRecord,
+    ControlsRecord,
+    DiscrepancyRecord,
+    IdentifiabilityRecord,
+    MeasuredRecord,
+)
+from bayestissue.io.records import read_record
+
+__all__ = ["LABELS", "StudyRecords", "read_study_records"]
+
+
+@dataclass(frozen=True)
+class StudyRecords:
+    """The study's records: identifiability and T1 vs T2 are needed; a stage that did not run leaves its None."""
+
+    identifiability: IdentifiabilityRecord
+    discrepancy: DiscrepancyRecord
+    calibration: CalibrationRecord | None = None
+    controls: ControlsRecord | None = None
+    measured: MeasuredRecord | None = None
+
+
+def read_study_records(folder) -> StudyRecords:
+    """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls and
+    measured-data records are optional (their stages may not have run), the other two are not."""
+    folder = Path(folder)
+
+    def optional(cls):
+        path = folder / FILES[cls]
+        return read_record(path, cls) if path.is_file() else None
+
+    return StudyRecords(
+        identifiability=read_record(folder / FILES[IdentifiabilityRecord], IdentifiabilityRecord),
+        discrepancy=read_record(folder / FILES[DiscrepancyRecord], DiscrepancyRecord),
+        calibration=optional(CalibrationRecord),
+        controls=optional(ControlsRecord),
+        measured=optional(MeasuredRecord),
+    )

@@ -1,0 +1,79 @@
+"""REPORT.md rendered from fixture records: the stored expected output, the answers first, verdicts from the records.
+
+The fixtures (tests/report/fixtures/*.json) are the records of a default study run; REPORT.md beside them is the
+expected rendering. After an intended change of the template, regenerate it with
+``python studies/report.py --out tests/report/fixtures`` and read the diff.
+"""
+
+import dataclasses
+import shutil
+from pathlib import Path
+
+import pytest
+
+from bayestissue.analyses.records import FILES, ControlsRecord, DiscrepancyRecord, MeasuredRecord
+from bayestissue.io.records import RecordError, read_record, write_record
+from bayestissue.report import read_study_records, render_report
+
+FIXTURES = Path(__file__).parent / "fixtures"
+
+
+@pytest.fixture(scope="module")
+def records():
+    return read_study_records(FIXTURES)
+
+
+def test_fixture_records_render_to_the_stored_report(records):
+    expected = (FIXTURES / "REPORT.md").read_text()
+    assert render_report(records) == expected
+
+
+def test_the_report_opens_with_the_answers(records):
+    lines = render_report(records).splitlines()
+    start = lines.index("## Answers")
+    assert start < 8
+    answers = lines[start : start + 12]
+    joined = "\n".join(answers)
+    for question in ("Do the posteriors hold?", "What does each test identify?", "Is the T1/T2 difference real?",
+                     "Which cause?"):  # fmt: skip
+        assert question in joined
+    assert "**yes** | tension Q = 40897 on 11 df" in joined
+    assert "**partial**: fibre angle + specimen stiffness" in joined
+    assert sum(len(line.split()) for line in lines) < 5000  # the report before the template: 7 500 words
+
+
+def test_verdicts_follow_the_records(records):
+    """Change a measurement in a record: the verdict the report states changes with it."""
+    D = records.discrepancy
+    cp = dict(D.cross_prediction)
+    cp["T2|T1"] = dataclasses.replace(cp["T2|T1"], coverage=0.9)  # the T1 posterior predicts T2 after all
+    text = render_report(dataclasses.replace(records, discrepancy=dataclasses.replace(D, cross_prediction=cp)))
+    assert "| Is the T1/T2 difference real? | **not established** |" in text
+    assert "**Not established** ([rule]" in text
+    K = records.controls
+    chi2 = dict(K.data.chi2, **{"2": K.data.chi2["T1"] + K.data.chi2["T2"] + 3.0})  # the angle alone explains it
+    data = dataclasses.replace(K.data, chi2=chi2)
+    text = render_report(dataclasses.replace(records, controls=dataclasses.replace(K, data=data)))
+    assert "| Which cause? (controlled rules) | **named**: fibre angle |" in text
+    assert "this verdict is a false attribution" in text
+
+
+def test_stages_that_did_not_run_leave_their_sections_out(tmp_path):
+    for cls in (DiscrepancyRecord,):
+        shutil.copy(FIXTURES / FILES[cls], tmp_path)
+    with pytest.raises(RecordError, match="identifiability_record.json: expected a bayestissue.identifiability"):
+        read_study_records(tmp_path)
+    shutil.copy(FIXTURES / "identifiability_record.json", tmp_path)
+    text = render_report(read_study_records(tmp_path))
+    assert "The controls stage did not run: no cause verdict." in text
+    assert "Which cause?" not in text.split("## 1.")[0]  # no answer without the controls
+    assert "## 6." not in text and "Recovery of the generating values" not in text
+
+
+def test_a_record_of_another_version_is_refused_by_name(tmp_path):
+    rec = read_record(FIXTURES / FILES[MeasuredRecord], MeasuredRecord)
+    path = write_record(tmp_path / FILES[MeasuredRecord], rec)
+    path.write_text(path.read_text().replace('"version": 1', '"version": 0'))
+    with pytest.raises(RecordError, match="measured_record.json version: expected version 1"):
+        read_record(path, MeasuredRecord)
+    assert read_record(FIXTURES / FILES[ControlsRecord], ControlsRecord).n_shared == 8
