@@ -16,11 +16,6 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "PARAMETER_KINDS",
-    "param_kind",
-    "KIND_BOUNDS",
-    "KIND_INITIAL",
-    "PARAM_UNITS",
     "PAPER_PARAMETERS",
     "PAPER_BOUNDS",
     "PAPER_DIRECTIONS_PRINTED",
@@ -32,18 +27,6 @@ __all__ = [
     "MIRROR_TIES",
     "MODULI",
 ]
-
-#: Parameter kinds of the composite (name without the fibre index) in the paper's order per family.
-PARAMETER_KINDS = ("mu", "kappa", "ginf", "gamma", "beta")
-
-
-def param_kind(name: str) -> str:
-    """The kind of a parameter name, its fibre index dropped: ``"ginf3"`` -> ``"ginf"``, ``"mu"`` -> ``"mu"``."""
-    return name.rstrip("0123456789")
-
-
-#: Unit of each parameter kind.
-PARAM_UNITS = {"mu": "kPa", "kappa": "kPa", "ginf": "kPa", "gamma": "1", "beta": "1/s"}
 
 #: Table 1: the paper's initial guess and its final T1 and T2 estimates (11 parameters in the order
 #: mu, kappa, then ginf_k, gamma_k, beta_k for k = 1, 2, 3).
@@ -58,10 +41,6 @@ for _v in PAPER_PARAMETERS.values():
 #: Table 1 box constraints [min, max] per parameter (same order).
 PAPER_BOUNDS = np.array([[0.001, 1000], [0.001, 1000]] + [[0.001, 1000], [0.1, 0.95], [0.00001, 2.5]] * 3, dtype=float)
 PAPER_BOUNDS.setflags(write=False)
-
-#: Table 1's box and initial guess of each parameter kind (the same for every fibre family).
-KIND_BOUNDS = {k: (float(lo), float(hi)) for k, (lo, hi) in zip(PARAMETER_KINDS, PAPER_BOUNDS[:5], strict=True)}
-KIND_INITIAL = {k: float(v) for k, v in zip(PARAMETER_KINDS, PAPER_PARAMETERS["initial"][:5], strict=True)}
 
 #: Section 3.1: the three SMC directions as printed (v1 along y; v2, v3 in the x-y plane, |v| = 0.99737).
 PAPER_DIRECTIONS_PRINTED = ((0.0, 1.0, 0.0), (0.9369, 0.3420, 0.0), (0.9369, -0.3420, 0.0))

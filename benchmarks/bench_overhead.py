@@ -5,7 +5,7 @@
 Times, per call on a batch of ``--sets`` parameter sets (the paper's T1 estimate; the mirror model in creep
 coordinates, as the study samples it):
 
-* ``kernel``: ``solve_uniaxial_batch`` with the fixed inputs computed beforehand (the floor);
+* ``kernel``: ``solve_batch`` with the fixed inputs computed beforehand (the floor);
 * ``ForwardModel``: parameter check + kernel + interpolation (fixed inputs computed once per experiment);
 * ``simulate``: the same through a new ForwardModel per call (fixed inputs recomputed, as every call did before
   the one-pipeline redesign);
@@ -29,9 +29,12 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from bayestissue.mechanics import load_experiment, simulate  # noqa: E402
-from bayestissue.mechanics.fibres import fibre_structure  # noqa: E402
-from bayestissue.mechanics.uniaxial import solve_uniaxial_batch  # noqa: E402
+from bayestissue.mechanics import (  # noqa: E402
+    ForwardModel,  # noqa: E402
+    load_experiment,
+    simulate,
+)
+from bayestissue.mechanics.solver import solve_batch  # noqa: E402
 
 try:  # after the redesign
     from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS
@@ -61,7 +64,7 @@ def _best(fn, reps, repeats) -> float:
 
 def _frames(problem, z) -> list[str]:
     module = sys.modules[KERNEL_MODULE]
-    kernel, chain = module.solve_uniaxial_batch, []
+    kernel, chain = module.solve_batch, []
 
     def recording(*args):
         frame = sys._getframe(1)
@@ -70,11 +73,11 @@ def _frames(problem, z) -> list[str]:
             frame = frame.f_back
         return kernel(*args)
 
-    module.solve_uniaxial_batch = recording
+    module.solve_batch = recording
     try:
         problem.log_posterior_unconstrained(z)
     finally:
-        module.solve_uniaxial_batch = kernel
+        module.solve_batch = kernel
     return ["log_posterior_unconstrained", *chain[::-1]]
 
 
@@ -90,28 +93,18 @@ def main(argv=None) -> int:
     cols = [problem.material.names.index(n) for n in problem.material.sampled_names]
     z = problem.coordinates.to_unconstrained(np.column_stack([p[:, cols], np.full(args.sets, 0.02)]))
     t = exp.tissue
-    fixed = (
-        np.ascontiguousarray(fibre_structure(t.directions)),
-        np.ascontiguousarray(t.phi_fibres),
-        t.phi_matrix,
-        t.bulk_kpa,
-        np.ascontiguousarray(t.eps0),
-        exp.nominal_stress_kpa(),
-        exp.dt_s,
-        exp.specimen_mm[0],
-    )
-    n_t = fixed[5].size
+    fixed = ForwardModel(exp).kernel_inputs  # computed before the timing: the floor is the kernel alone
+    n_t = exp.n_steps + 1
     p2 = np.ascontiguousarray(p)
+    no_sens = np.empty((1, 1, 1, 1))
 
     def kernel():
-        u, ok = np.empty((args.sets, n_t)), np.empty(args.sets, dtype=np.bool_)
+        u, ok = np.empty((args.sets, n_t, 1)), np.empty(args.sets, dtype=np.bool_)
         s, tau, it = np.empty((1, 1, 6)), np.empty((1, 1, t.n_fibres)), np.zeros(args.sets, dtype=np.int64)
-        solve_uniaxial_batch(p2, *fixed, u, ok, s, tau, False, it)
+        solve_batch(p2, *fixed, u, ok, s, tau, False, it, False, no_sens)
 
     timings = {"kernel": kernel, "simulate": lambda: simulate(exp, p)}
     try:
-        from bayestissue.mechanics import ForwardModel
-
         model = ForwardModel(exp)
         timings["ForwardModel"] = lambda: model(p)
     except ImportError:

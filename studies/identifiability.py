@@ -48,6 +48,7 @@ from bayestissue.identifiability import (  # noqa: E402
 )
 from bayestissue.io.figures import save_figure  # noqa: E402
 from bayestissue.io.records import write_record  # noqa: E402
+from bayestissue.mechanics import PAPER_TISSUE  # noqa: E402
 from bayestissue.plotting.identifiability import (  # noqa: E402
     plot_collinearity,
     plot_contraction,
@@ -92,7 +93,12 @@ def main(argv=None) -> int:
     figures = []
     figures.append(
         save_figure(
-            plot_profiles(prof, [p for p in NAMES if p in args.mode.profile_params], threshold=CHI2_1_95),
+            plot_profiles(
+                prof,
+                [p for p in NAMES if p in args.mode.profile_params],
+                threshold=CHI2_1_95,
+                units={p.name: p.unit for p in PAPER_TISSUE.parameters},
+            ),
             out / "identifiability_profiles.png",
         )
     )

@@ -40,7 +40,6 @@ from bayestissue.inference import fit_least_squares
 from bayestissue.inference.warmstart import latin_hypercube
 from bayestissue.mechanics import Experiment, simulate
 from bayestissue.mechanics.branches import second_branch_ties, with_second_branch
-from bayestissue.mechanics.tissue import modulus_indices
 from bayestissue.paper import MIRROR_TIES, PAPER_HALF_ANGLE_DEG, PAPER_PARAMETERS
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.forward import tissue_with_half_angle
@@ -146,7 +145,7 @@ def make_pair(t1: Experiment, t2: Experiment, scenario: Scenario, seed: int) -> 
         fast = [2 * p[5] * share, gamma, beta]
         p = np.concatenate([p[:5], slow, slow, fast, fast])
     p2 = p.copy()
-    p2[modulus_indices(tissue.param_names)] *= scenario.scale
+    p2[tissue.modulus_indices()] *= scenario.scale
     return _noisy(t1, tissue, p, rng), _noisy(t2, tissue2, p2, rng)
 
 
@@ -176,7 +175,7 @@ def _cause_model(e1, e2, optima, causes, seed):
     tied, starts, n_lhs = MIRROR_TIES, [np.append(x, extra) for x in optima], 0
     if 1 in causes:
         e1, e2 = (replace(e, tissue=with_second_branch(e.tissue, BRANCHED)) for e in (e1, e2))
-        tied, n_lhs = second_branch_ties(MIRROR_TIES, 3, BRANCHED), 2
+        tied, n_lhs = second_branch_ties(MIRROR_TIES, e1.tissue), 2
         # the slow branch from a base optimum (half the fraction: twice ginf), the fast one small
         starts = [np.concatenate([x[:5], [2 * x[5], x[6], x[7]], _BRANCH_START, extra]) for x in optima]
     specimen = None if kinds is None else (kinds, e2.name)

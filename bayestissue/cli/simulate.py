@@ -38,8 +38,8 @@ def run(args) -> int:
 
     exp = load_experiment(args.experiment)
     names = exp.tissue.param_names
-    base = PAPER_PARAMETERS[args.preset] if len(names) == 11 else None
-    params = parse_parameters(args.params, names, base=base)
+    base = PAPER_PARAMETERS[args.preset] if exp.tissue.is_paper_model and len(names) == 11 else None
+    params = parse_parameters(args.params, exp.tissue.parameters, base=base)
     run = simulate(exp, params, full=True)
     if not run.ok[0]:
         print(

@@ -37,7 +37,6 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 from bayestissue.mechanics.tissue import TissueConfig
-from bayestissue.paper import param_kind
 
 __all__ = ["with_second_branch", "branch_relaxation", "second_branch_ties"]
 
@@ -80,23 +79,22 @@ def with_second_branch(tissue: TissueConfig, families) -> TissueConfig:
     )
 
 
-def second_branch_ties(tied, n_fibres: int, families) -> tuple[tuple[str, str], ...]:
-    """Ties between fibre laws carried over to the second branches: if ``ginf3`` takes ``ginf2`` and both families
-    have second branches, the second branch of 3 takes the second branch of 2. ``tied`` are pairs (name, target)."""
-    fams = [int(k) for k in families]
-    branch = {k: n_fibres + 1 + j for j, k in enumerate(fams)}
+def second_branch_ties(tied, tissue: TissueConfig) -> tuple[tuple[str, str], ...]:
+    """Ties between fibre laws carried over to the second branches of ``tissue`` (made by :func:`with_second_branch`):
+    if ``ginf3`` takes ``ginf2`` and both families have second branches, the second branch of 3 takes the second
+    branch of 2. ``tied`` are pairs (name, target); families are found from the tissue's parameter specifications,
+    not from the names."""
+    n_base = tissue.n_fibres - len(tissue.second_branch)
+    branch = {k: n_base + 1 + j for j, k in enumerate(tissue.second_branch)}
+    where = {n: (k, i) for k in range(1, tissue.n_fibres + 1) for i, n in enumerate(tissue.family_parameters(k))}
     out = list(tied)
     for name, target in tied:
-        (kind, k), (_, t) = _kind_family(name), _kind_family(target)
+        if name not in where or target not in where:
+            continue
+        (k, i), (t, j) = where[name], where[target]
         if k in branch and t in branch:
-            out.append((f"{kind}{branch[k]}", f"{kind}{branch[t]}"))
+            out.append((tissue.family_parameters(branch[k])[i], tissue.family_parameters(branch[t])[j]))
     return tuple(out)
-
-
-def _kind_family(name: str) -> tuple[str, int]:
-    """``"ginf3"`` -> ``("ginf", 3)``."""
-    kind = param_kind(name)
-    return kind, int(name[len(kind) :])
 
 
 def branch_relaxation(time_s, strain: float, ginf, gamma, beta) -> np.ndarray:

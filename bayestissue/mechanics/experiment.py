@@ -13,6 +13,8 @@ Experiment file format (TOML, with a CSV data file beside it)::
 
     [protocol]
     kind = "creep"                        # creep | ramp | measured | stretch_ramp | stretch_cycles | measured_stretch
+                                          # | shear_ramp | measured_shear
+    mode = "uniaxial"                     # the load case: uniaxial | equibiaxial | biaxial | pure_shear | simple_shear
     stress_kpa = 10.6                     # creep: constant nominal stress
     # ramp:     hold_stress_kpa, hold_s, rate_kpa_per_s
     # measured: the load is the data file's force column (force_column, default "force_mN")
@@ -35,12 +37,16 @@ Experiment file format (TOML, with a CSV data file beside it)::
     phi_matrix = 0.4
     bulk_kpa = 1000.0
     eps0 = [0, 0, 0]
+    matrix = "mooney_rivlin"              # the laws (docs/laws.md): matrix, its terms (Ogden), fibre, recruitment
+    fibre = "linear"                      # (hgo), Prony branches of each: matrix_branches = 0, fibre_branches = 1
+    fibre_branches = 1
 
 A data file's ``# noise_sd_mm: ...`` header line (written for synthetic replicas) is kept as ``noise_sd_mm``.
 
-What is observed depends on what the protocol controls (:attr:`Experiment.observable`): under force control the
-displacement of the loaded face (``displacement_mm``); under stretch control the force on it (``force_mN``) or,
-where the data give only that, the nominal stress (``nominal_stress_kpa``).
+What is observed is the load case's (:attr:`Experiment.channels`, :mod:`bayestissue.mechanics.loadcases`): under
+force control the displacement of the loaded face (``displacement_mm``); under stretch control the force on it
+(``force_mN``) or, where the data give only that, the nominal stress (``nominal_stress_kpa``); a biaxial test both
+loaded faces (``..._2_...`` columns), simple shear the shear stress (``shear_stress_kpa``) or force.
 """
 
 from __future__ import annotations
@@ -56,6 +62,8 @@ from bayestissue.io.tables import read_table
 from bayestissue.io.toml_files import read_toml
 from bayestissue.mechanics.branches import with_second_branch
 from bayestissue.mechanics.experiment_schema import check_experiment_document
+from bayestissue.mechanics.laws import fibre_law, matrix_law
+from bayestissue.mechanics.loadcases import Channel, LoadCase, Uniaxial, load_case
 from bayestissue.mechanics.presets import preset
 from bayestissue.mechanics.protocols import protocol_from_mapping
 from bayestissue.mechanics.tissue import PAPER_TISSUE, TissueConfig
@@ -67,6 +75,8 @@ __all__ = ["Experiment", "load_experiment", "MIN_STEPS", "MAX_STEPS"]
 #: stores (n_steps + 1) x batch states and the solve takes minutes per curve (dt_s = 1e-9 asked for 8.7 TiB).
 MIN_STEPS = 2
 MAX_STEPS = 1_000_000
+#: Data columns kept as named fields of :class:`Experiment` (the others go to ``columns``).
+_FIELDS = {"displacement_mm": "displacement_mm", "force_mN": "force_mN", "nominal_stress_kpa": "stress_kpa"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,6 +101,9 @@ class Experiment:
     noise_sd_mm : float or None
         Measurement noise sd where known (synthetic replicas record it).
     source, data_file : the experiment file and the data file it was read from (the run's provenance hashes both).
+    load_case : the homogeneous test the protocol drives (default uniaxial along x).
+    columns : every numeric column of the data file (the observed channels beyond the three above: a biaxial
+        test's second face, simple shear's stress).
     """
 
     name: str
@@ -108,6 +121,8 @@ class Experiment:
     source: str | None = None
     data_file: str | None = None
     meta: dict = field(default_factory=dict)
+    load_case: LoadCase = field(default_factory=Uniaxial)
+    columns: dict = field(default_factory=dict)
 
     def __post_init__(self):
         dims = tuple(
@@ -146,6 +161,15 @@ class Experiment:
             object.__setattr__(self, "noise_sd_mm", check_positive("noise_sd_mm", self.noise_sd_mm))
         if not isinstance(self.tissue, TissueConfig):
             raise ValidationError("tissue", type(self.tissue).__name__, "a TissueConfig")
+        if not isinstance(self.load_case, LoadCase):
+            raise ValidationError("load_case", type(self.load_case).__name__, "a LoadCase")
+        self.load_case.check_controls(self.controls)
+        cols = {k: np.asarray(v, dtype=float) for k, v in dict(self.columns).items() if k not in _FIELDS}
+        for name, v in cols.items():
+            if v.shape != t.shape:
+                raise ValidationError(name, f"{v.size} values", f"{t.size} values (one per data time)")
+            v.setflags(write=False)
+        object.__setattr__(self, "columns", cols)
 
     @property
     def area_mm2(self) -> float:
@@ -174,24 +198,42 @@ class Experiment:
         return self.protocol.nominal_stress_kpa(self.step_time_s, self.area_mm2)
 
     def prescribed(self) -> np.ndarray:
-        """(n_steps + 1,) the load history at the simulation steps: the nominal stress P11 (kPa, 0 at t = 0) under
-        force control, the stretch of the loaded face (1 at t = 0) under stretch control."""
+        """(n_steps + 1,) the driving history at the simulation steps: the nominal stress (kPa, 0 at t = 0) under
+        force control, the stretch of the loaded face (1 at t = 0) under stretch control, the amount of shear (0 at
+        t = 0) under shear control."""
         if self.controls == "force":
             return self.nominal_stress_kpa()
+        if self.controls == "shear":
+            g = np.asarray(self.protocol.shear_at(self.step_time_s), dtype=float)
+            g[0] = 0.0
+            return g
         lam = np.asarray(self.protocol.stretch_at(self.step_time_s), dtype=float)
         lam[0] = 1.0
         return lam
 
     @property
+    def channels(self) -> tuple[Channel, ...]:
+        """What the forward model predicts, channel by channel (:mod:`bayestissue.mechanics.loadcases`)."""
+        return self.load_case.channels(self.controls, self.data_columns, self.specimen_mm)
+
+    def data_of(self, channel: Channel) -> np.ndarray | None:
+        """The observed data of ``channel`` (None if the data file has no such column)."""
+        if channel.column in _FIELDS:
+            return getattr(self, _FIELDS[channel.column])
+        return self.columns.get(channel.column)
+
+    @property
+    def data_columns(self) -> set[str]:
+        """The data columns present (the named fields and the extra columns)."""
+        return {c for c, f in _FIELDS.items() if getattr(self, f) is not None} | set(self.columns)
+
+    @property
     def observable(self) -> tuple[str, str, np.ndarray | None]:
-        """``(quantity, unit, data)``: what the forward model predicts and the data to compare it with --
-        ``("displacement", "mm", displacement_mm)`` under force control; under stretch control ``("force", "mN",
-        force_mN)``, or ``("nominal stress", "kPa", stress_kpa)`` when the data file has no force column."""
-        if self.controls == "force":
-            return "displacement", "mm", self.displacement_mm
-        if self.stress_kpa is not None and self.force_mN is None:
-            return "nominal stress", "kPa", self.stress_kpa
-        return "force", "mN", self.force_mN
+        """``(quantity, unit, data)`` of the first channel: ``("displacement", "mm", displacement_mm)`` under force
+        control; under stretch control ``("force", "mN", force_mN)``, or ``("nominal stress", "kPa", stress_kpa)``
+        when the data file has no force column."""
+        ch = self.channels[0]
+        return ch.quantity, ch.unit, self.data_of(ch)
 
     @property
     def observed(self) -> np.ndarray | None:
@@ -259,11 +301,20 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
         duration = check_positive("data.duration_s", _get(data, "duration_s", "data"))
         step = check_positive("data.step_s", _get(data, "step_s", "data"))
         time_s = np.arange(0.0, duration + 0.5 * step, step)
-    protocol = protocol_from_mapping(_table(doc, "protocol"), columns=columns, length_x_mm=dims[0])
+    prot = _table(doc, "protocol")
+    protocol = protocol_from_mapping(prot, columns=columns, length_x_mm=dims[0])
+    case = load_case(prot.get("mode", "uniaxial"), **({"ratio": prot["ratio"]} if "ratio" in prot else {}))
     tissue = PAPER_TISSUE
     if "tissue" in doc:
         t = doc["tissue"]
         base = preset(t.get("preset", "slug"))
+        matrix = base.tissue.matrix
+        if "matrix" in t or "terms" in t:
+            matrix = matrix_law(t.get("matrix", matrix.name), **({"terms": t["terms"]} if "terms" in t else {}))
+        fibre = base.tissue.fibre
+        if "fibre" in t or "recruitment" in t:
+            opts = {"recruitment": t["recruitment"]} if "recruitment" in t else {}
+            fibre = fibre_law(t.get("fibre", fibre.name), **opts)
         tissue = TissueConfig(
             directions=t.get("directions", base.tissue.directions),
             phi_fibres=t.get("phi_fibres", base.tissue.phi_fibres),
@@ -271,6 +322,10 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
             bulk_kpa=t.get("bulk_kpa", base.tissue.bulk_kpa),
             eps0=t.get("eps0"),
             preset=base.name,
+            matrix=matrix,
+            fibre=fibre,
+            matrix_branches=t.get("matrix_branches", base.tissue.matrix_branches),
+            fibre_branches=t.get("fibre_branches", base.tissue.fibre_branches),
         )
         tissue = with_second_branch(tissue, t.get("second_branch", []))
     noise = meta.get("noise_sd_mm")
@@ -295,4 +350,6 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
         source=str(path),
         data_file=None if data_file is None else str(data_file),
         meta=meta,
+        load_case=case,
+        columns={k: v for k, v in columns.items() if k != "time_s"},
     )

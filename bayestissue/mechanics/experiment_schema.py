@@ -15,6 +15,8 @@ from collections.abc import Mapping
 
 from bayestissue._schema import Key, check_table, reference_rows
 from bayestissue._validation import check_known_keys
+from bayestissue.mechanics.laws import FIBRE_LAWS, MATRIX_LAWS
+from bayestissue.mechanics.loadcases import LOAD_CASES
 from bayestissue.mechanics.presets import PRESETS
 
 __all__ = ["TABLES", "PROTOCOL_KEYS", "check_experiment_document", "experiment_markdown"]
@@ -23,12 +25,14 @@ _POSITIVE = {"low": 0.0, "low_open": True}
 
 #: The ``[protocol]`` keys each kind takes (a ramp's ``stress_kpa`` is a mistake, not an extra).
 PROTOCOL_KEYS = {
-    "creep": ("kind", "stress_kpa"),
-    "ramp": ("kind", "hold_stress_kpa", "hold_s", "rate_kpa_per_s"),
-    "measured": ("kind", "force_column"),
-    "stretch_ramp": ("kind", "stretch", "ramp_s"),
-    "stretch_cycles": ("kind", "stretch", "period_s"),
-    "measured_stretch": ("kind", "stretch_column"),
+    "creep": ("kind", "mode", "ratio", "stress_kpa"),
+    "ramp": ("kind", "mode", "ratio", "hold_stress_kpa", "hold_s", "rate_kpa_per_s"),
+    "measured": ("kind", "mode", "ratio", "force_column"),
+    "stretch_ramp": ("kind", "mode", "ratio", "stretch", "ramp_s"),
+    "stretch_cycles": ("kind", "mode", "ratio", "stretch", "period_s"),
+    "measured_stretch": ("kind", "mode", "ratio", "stretch_column"),
+    "shear_ramp": ("kind", "mode", "shear", "ramp_s"),
+    "measured_shear": ("kind", "mode", "shear_column"),
 }
 
 #: The keys of each table ("" is the top level).
@@ -45,8 +49,13 @@ TABLES: dict[str, dict[str, Key]] = {
     },
     "protocol": {
         "kind": Key("choice", "required", "force control: creep, ramp, a measured force history; stretch control: "
-                    "stretch_ramp, stretch_cycles, a measured stretch history",
+                    "stretch_ramp, stretch_cycles, a measured stretch history; shear control (simple shear): "
+                    "shear_ramp, a measured shear history",
                     choices=tuple(PROTOCOL_KEYS)),
+        "mode": Key("choice", '"uniaxial"', "the load case the history drives (docs/laws.md): uniaxial (tension or "
+                    "compression), equibiaxial, biaxial, pure_shear, simple_shear", choices=tuple(LOAD_CASES)),
+        "ratio": Key("float", "1", "biaxial: (lambda_2 - 1)/(lambda_1 - 1) under stretch control, P_2/P_1 under "
+                     "force control"),
         "stress_kpa": Key("float", "required (creep)", "constant nominal stress from the first step on (kPa)"),
         "hold_stress_kpa": Key("float", "required (ramp)", "nominal stress held first (kPa)"),
         "hold_s": Key("float", "required (ramp)", "duration of the hold (s)", low=0.0),
@@ -59,6 +68,8 @@ TABLES: dict[str, dict[str, Key]] = {
         "period_s": Key("float", "required (stretch_cycles)", "period of a loading-unloading cycle (s)", **_POSITIVE),
         "stretch_column": Key("text", '"stretch"', "the data file's stretch column (measured_stretch; without it, "
                               "displacement_mm / length_x_mm)"),
+        "shear": Key("float", "required (shear_ramp)", "amount of shear gamma reached by the ramp"),
+        "shear_column": Key("text", '"shear"', "the data file's amount-of-shear column (measured_shear)"),
     },
     "simulation": {
         "dt_s": Key("float", "required", "simulation step (s), 2 to 10^6 steps over the data's span", **_POSITIVE),
@@ -81,6 +92,13 @@ TABLES: dict[str, dict[str, Key]] = {
         "second_branch": Key("numbers", "[]", "families (1-based) given a second Kelvin branch: a two-time-constant "
                              "fibre (bayestissue/mechanics/branches.py); family n_f + j is the j-th listed family's "
                              "second branch"),
+        "matrix": Key("choice", '"mooney_rivlin"', "the matrix law (docs/laws.md)", choices=tuple(MATRIX_LAWS)),
+        "terms": Key("int", "1", "Ogden terms (matrix = \"ogden\")", low=1),
+        "fibre": Key("choice", '"linear"', "the fibre law (docs/laws.md)", choices=tuple(FIBRE_LAWS)),
+        "recruitment": Key("bool", "false", "a recruitment stretch parameter (fibre = \"hgo\"): the toe region"),
+        "matrix_branches": Key("int", "0", "Prony branches of the matrix (0: elastic)", low=0),
+        "fibre_branches": Key("int", "1", "Prony branches of each fibre family (1: the paper's Kelvin fibre; 0: "
+                              "elastic)", low=0),
     },
 }  # fmt: skip
 
@@ -127,7 +145,10 @@ def experiment_markdown() -> str:
         ">= 0), `displacement_mm` (the displacement of the loaded face: observed under force control, the load of a "
         "measured_stretch protocol without a stretch column), `force_mN` (the force on the loaded face: the load "
         "of a measured protocol, observed under stretch control), `stretch` (the load of a measured_stretch "
-        "protocol), `nominal_stress_kpa` (observed under stretch control where the data give no force).",
+        "protocol), `nominal_stress_kpa` (observed under stretch control where the data give no force); for the "
+        "second loaded face of a biaxial test `force_2_mN`, `nominal_stress_2_kpa`, `displacement_2_mm`; for simple "
+        "shear `shear` (the load of a measured_shear protocol) and `shear_stress_kpa` or `shear_force_mN` "
+        "(observed).",
     ]
     for table, keys in TABLES.items():
         lines += ["", "## top level" if not table else f"## [{table}]", "", *reference_rows(keys)]

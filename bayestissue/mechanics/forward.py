@@ -8,11 +8,13 @@ import numpy as np
 
 from bayestissue.mechanics.experiment import Experiment
 from bayestissue.mechanics.fibres import fibre_structure
-from bayestissue.mechanics.sensitivity import sensitivities_uniaxial_batch
+from bayestissue.mechanics.solver import solve_batch
 from bayestissue.mechanics.tissue import check_parameters
-from bayestissue.mechanics.uniaxial import solve_uniaxial_batch
 
-__all__ = ["ForwardModel", "simulate", "SimulationResult"]
+__all__ = ["ChannelForward", "ForwardModel", "simulate", "SimulationResult"]
+
+#: The kernel's sensitivity output when none is asked for (never written).
+_NO_SENS = np.empty((1, 1, 1, 1))
 
 
 @dataclass(frozen=True)
@@ -21,8 +23,8 @@ class SimulationResult:
 
     Attributes
     ----------
-    observed : (n_sets, n_obs) ndarray
-        The experiment's observable (:attr:`Experiment.observable`) at the data times; NaN rows where the solve
+    observed : (n_sets, n_obs) ndarray, or (n_sets, n_obs, n_channels) for several channels
+        The experiment's observed channels (:attr:`Experiment.channels`) at the data times; NaN rows where the solve
         failed.
     displacement_mm, force_mN : (n_sets, n_obs) ndarray
         x-displacement of the loaded face and the force on it at the data times (one of them prescribed, the other
@@ -55,15 +57,16 @@ class SimulationResult:
 class ForwardModel:
     r"""The batched forward model of one experiment, with its fixed inputs computed once.
 
-    The load history on the simulation grid (:meth:`Experiment.prescribed`: :math:`P_{11}(t_n)` under force
-    control, the stretch :math:`\lambda(t_n)` under stretch control), the fibre structure tensors
-    :math:`M_k = v_k \otimes v_k`, the contiguous volume fractions and slack strains, and the interpolation
-    from the step grid to the data times (:meth:`Experiment.interpolation`) depend on the experiment only;
-    a sampler calls the model millions of times with new parameters, so they are built here once and a call
-    does the parameter check, the kernel (:func:`~bayestissue.mechanics.uniaxial.solve_uniaxial_batch`) and
-    the interpolation. The output is the experiment's observable (:attr:`Experiment.observable`): the
-    displacement (mm) under force control, the force (mN, :math:`P_{11} L_y L_z`) or nominal stress (kPa) under
-    stretch control. Picklable (a dask or multiprocessing worker rebuilds nothing but the object).
+    The load case's conditions on the simulation grid (:meth:`Experiment.prescribed` through the experiment's
+    :class:`~bayestissue.mechanics.loadcases.LoadCase`), the laws' layout (:attr:`TissueConfig.layout`), the fibre
+    structure tensors :math:`M_k = v_k \otimes v_k`, the contiguous volume fractions and slack strains, and the
+    interpolation from the step grid to the data times (:meth:`Experiment.interpolation`) depend on the experiment
+    only; a sampler calls the model millions of times with new parameters, so they are built here once and a call
+    does the parameter check, the kernel (:func:`~bayestissue.mechanics.solver.solve_batch`) and the interpolation.
+    The output is the experiment's observed channels (:attr:`Experiment.channels`): the displacement (mm) under force
+    control, the force (mN) or nominal stress (kPa) under stretch control, a shear stress for simple shear; one
+    channel gives ``(n_sets, n_obs)``, several ``(n_sets, n_obs, n_channels)`` (:meth:`channel` gives one of them).
+    Picklable (a dask or multiprocessing worker rebuilds nothing but the object).
 
     Parameters
     ----------
@@ -73,27 +76,34 @@ class ForwardModel:
     def __init__(self, experiment: Experiment):
         tissue = experiment.tissue
         self.experiment = experiment
-        self.names = tissue.param_names
+        self.specs = tissue.parameters
+        self.names = tuple(p.name for p in self.specs)
+        self.channels = experiment.channels
         self.stretch_control = experiment.controls == "stretch"
         self.load = experiment.prescribed()
-        #: kernel output -> observable: 1 (displacement, nominal stress) or the cross-section (force, mN per kPa)
-        self.scale = experiment.area_mm2 if experiment.observable[0] == "force" else 1.0
-        self.structure = np.ascontiguousarray(fibre_structure(tissue.directions))
+        kinds, values = experiment.load_case.prescribe(self.load, experiment.controls)
+        #: kernel output -> observable, per channel: 1 (mm, kPa) or a face's area (mN per kPa)
+        self.scales = np.array([c.scale for c in self.channels])
+        self.structure = np.ascontiguousarray(fibre_structure(tissue.directions).reshape(-1, 6))
         self.phi_fibres = np.ascontiguousarray(tissue.phi_fibres)
         self.eps0 = np.ascontiguousarray(tissue.eps0)
         self.index, self.weight = experiment.interpolation()
-        #: the kernels' fixed inputs after the parameters, in their order (structure tensors, fibre fractions,
-        #: matrix fraction, bulk modulus, slack strains, load, step, specimen length)
+        #: the kernel's fixed inputs after the parameters, in its order (laws' layout, structure tensors, fibre
+        #: fractions, matrix fraction, bulk modulus, slack strains, load case, step, specimen, channels)
         self.kernel_inputs = (
+            tissue.layout,
             self.structure,
             self.phi_fibres,
             tissue.phi_matrix,
             tissue.bulk_kpa,
             self.eps0,
-            self.load,
+            kinds,
+            np.ascontiguousarray(values),
             experiment.dt_s,
-            experiment.specimen_mm[0],
+            np.asarray(experiment.specimen_mm, dtype=float),
+            np.array([[c.kind, c.axis] for c in self.channels], dtype=np.int64),
         )
+        self._memo = None
 
     def at_data_times(self, steps: np.ndarray) -> np.ndarray:
         """Interpolate ``(n_sets, n_steps + 1, ...)`` step values to the data times: ``(n_sets, n_obs, ...)``
@@ -102,36 +112,70 @@ class ForwardModel:
         w = self.weight.reshape((-1,) + (1,) * (steps.ndim - 2))
         return steps[:, i] * (1.0 - w) + steps[:, i + 1] * w
 
-    def __call__(self, params, *, full: bool = False):
-        """The observable ``(n_sets, n_obs)`` at the data times for ``params`` ``(n_sets, n_params)``;
-        ``(n_obs,)`` for one set; a :class:`SimulationResult` if ``full`` (see :func:`simulate`)."""
-        tissue = self.experiment.tissue
-        p = check_parameters(params, self.names)
-        single = p.ndim == 1
-        p2 = np.ascontiguousarray(np.atleast_2d(p))
-        n_sets, n_t, nf = p2.shape[0], self.load.size, tissue.n_fibres
-        u = np.empty((n_sets, n_t))
+    def _run(self, p2, full: bool, want_sens: bool):
+        """One kernel run: ``(out, ok, strain, tension, iterations, dout)`` on the step grid."""
+        n_sets, n_t, nf, n_ch = p2.shape[0], self.load.size, self.experiment.tissue.n_fibres, len(self.channels)
+        out = np.empty((n_sets, n_t, n_ch))
         ok = np.empty(n_sets, dtype=np.bool_)
         strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
         tension = np.empty((n_sets, n_t, nf) if full else (1, 1, nf))
         iterations = np.zeros(n_sets, dtype=np.int64)
-        solve_uniaxial_batch(p2, *self.kernel_inputs, u, ok, strain, tension, full, iterations, self.stretch_control)
-        obs = self.at_data_times(u)
-        if self.scale != 1.0:
-            obs *= self.scale
+        dout = np.empty((n_sets, n_t, n_ch, p2.shape[1]) if want_sens else (1, 1, 1, 1))
+        solve_batch(p2, *self.kernel_inputs, out, ok, strain, tension, full, iterations, want_sens, dout)
+        return out, ok, strain, tension, iterations, dout
+
+    def _observed(self, steps: np.ndarray) -> np.ndarray:
+        """Channel values at the steps -> observables at the data times, ``(n_sets, n_obs[, n_ch])``."""
+        obs = self.at_data_times(steps)
+        if np.any(self.scales != 1.0):
+            obs = obs * self.scales.reshape((1, 1, -1) + (1,) * (obs.ndim - 3))
+        return obs[:, :, 0] if len(self.channels) == 1 else obs
+
+    def __call__(self, params, *, full: bool = False):
+        """The observed channels at the data times for ``params`` ``(n_sets, n_params)``: ``(n_sets, n_obs)`` for
+        one channel (``(n_obs,)`` for one set), ``(n_sets, n_obs, n_channels)`` for several; a
+        :class:`SimulationResult` if ``full`` (see :func:`simulate`)."""
+        p = check_parameters(params, self.specs)
+        single = p.ndim == 1
+        p2 = np.ascontiguousarray(np.atleast_2d(p))
+        n_sets, n_t, nf, n_ch = p2.shape[0], self.load.size, self.experiment.tissue.n_fibres, len(self.channels)
+        out = np.empty((n_sets, n_t, n_ch))
+        ok = np.empty(n_sets, dtype=np.bool_)
+        strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
+        tension = np.empty((n_sets, n_t, nf) if full else (1, 1, nf))
+        iterations = np.zeros(n_sets, dtype=np.int64)
+        solve_batch(p2, *self.kernel_inputs, out, ok, strain, tension, full, iterations, False, _NO_SENS)
+        obs = self._observed(out)
         if full:
-            return self._result(obs, u, ok, strain, tension, iterations)
+            return self._result(obs, out, ok, strain, tension, iterations)
         return obs[0] if single else obs
 
-    def _result(self, obs, u, ok, strain, tension, iterations) -> SimulationResult:
-        """Both the displacement and the stress at the steps, whichever the kernel computed."""
+    def channel(self, c: int) -> ChannelForward:
+        """A forward of channel ``c`` alone (its own noise model in a calibration); channels evaluated at the same
+        parameters share one kernel run."""
+        return ChannelForward(self, c)
+
+    def _memoised(self, params):
+        """All channels at ``params`` (2-D), re-using the last run for the same parameters."""
+        p2 = np.ascontiguousarray(np.atleast_2d(np.asarray(params, dtype=float)))
+        if self._memo is not None and self._memo[0].shape == p2.shape and np.array_equal(self._memo[0], p2):
+            return self._memo[1]
+        obs = self(p2)
+        obs = obs[:, :, None] if obs.ndim == 2 else obs
+        self._memo = (p2.copy(), obs)
+        return obs
+
+    def _result(self, obs, out, ok, strain, tension, iterations) -> SimulationResult:
+        """Both the displacement and the stress of face 1 at the steps, whichever the kernel computed."""
         e = self.experiment
-        if self.stretch_control:
-            stress = u
-            disp = np.where(ok[:, None], (self.load[None, :] - 1.0) * e.specimen_mm[0], np.nan)
-        else:
-            disp = u
+        first = self.channels[0]
+        if first.kind == 0:
+            disp = out[:, :, 0]
             stress = np.where(ok[:, None], self.load[None, :], np.nan)
+        else:
+            stress = out[:, :, 0]
+            lam = self.load if self.stretch_control else np.sqrt(1.0 + 2.0 * strain[:, :, 0])
+            disp = np.where(ok[:, None], (lam - 1.0) * e.specimen_mm[0], np.nan)
         return SimulationResult(
             observed=obs,
             displacement_mm=self.at_data_times(disp),
@@ -146,27 +190,45 @@ class ForwardModel:
         )
 
     def sensitivities(self, params) -> tuple[np.ndarray, np.ndarray]:
-        r"""The observable and its exact parameter derivatives at the data times.
+        r"""The observed channels and their exact parameter derivatives at the data times.
 
-        Returns ``y`` ``(n_sets, n_obs)`` (:meth:`__call__`: mm, or mN / kPa under stretch control) and ``dy``
-        ``(n_sets, n_obs, n_params)`` with ``dy[s, i, j] = \partial y_i / \partial p_j`` in the parameters' own
-        units (per kPa, per 1, per 1/s), from a forward run and one differentiation pass over its converged states
-        (:func:`~bayestissue.mechanics.sensitivity.sensitivities_uniaxial_batch`); interpolated to the data times
-        like ``y``. ``(n_obs,)`` and ``(n_obs, n_params)`` for one set; NaN rows for failed sets.
+        Returns ``y`` as :meth:`__call__` and ``dy`` ``(n_sets, n_obs[, n_ch], n_params)`` with
+        ``dy[s, i, ..., j] = \partial y_i / \partial p_j`` in the parameters' own units (per kPa, per 1, per 1/s),
+        from one forward run that differentiates every converged step (:mod:`~bayestissue.mechanics.sensitivity`);
+        interpolated to the data times like ``y``. ``(n_obs,)`` and ``(n_obs, n_params)`` for one set; NaN rows for
+        failed sets.
         """
-        p = check_parameters(params, self.names)
+        p = check_parameters(params, self.specs)
         single = p.ndim == 1
         p2 = np.ascontiguousarray(np.atleast_2d(p))
-        run = self(p2, full=True)
-        du = np.empty((p2.shape[0], self.load.size, p2.shape[1]))
-        sensitivities_uniaxial_batch(
-            p2, *self.kernel_inputs, run.strain, run.tension_kpa, run.ok, du, self.stretch_control
-        )
-        dobs = self.at_data_times(du)
-        if self.scale != 1.0:
-            dobs *= self.scale
-        y = run.observed
+        out, ok, strain, tension, iterations, dout = self._run(p2, False, True)
+        y = self._observed(out)
+        dobs = self.at_data_times(dout)  # (n_sets, n_obs, n_ch, n_p)
+        if np.any(self.scales != 1.0):
+            dobs = dobs * self.scales[None, None, :, None]
+        if len(self.channels) == 1:
+            dobs = dobs[:, :, 0]
         return (y[0], dobs[0]) if single else (y, dobs)
+
+
+class ChannelForward:
+    """One channel of a :class:`ForwardModel` as a forward of its own: ``(n_sets, n_obs)`` at ``params``."""
+
+    def __init__(self, model: ForwardModel, c: int):
+        self.model, self.c = model, int(c)
+        self.names = model.names
+        self.channel = model.channels[self.c]
+
+    def __call__(self, params):
+        single = np.asarray(params).ndim == 1
+        obs = self.model._memoised(params)[:, :, self.c]
+        return obs[0] if single else obs
+
+    def sensitivities(self, params):
+        y, dy = self.model.sensitivities(params)
+        if len(self.model.channels) == 1:
+            return y, dy
+        return y[..., self.c], dy[..., self.c, :]
 
 
 def simulate(experiment: Experiment, params, *, full: bool = False):
@@ -176,15 +238,15 @@ def simulate(experiment: Experiment, params, *, full: bool = False):
     ----------
     experiment : Experiment
     params : (n_params,) or (n_sets, n_params) array_like
-        Material parameters in the paper's order (``experiment.tissue.param_names``). Every row is checked
-        (moduli >= 0, gamma in [0, 1), beta > 0); a bad value raises.
+        Material parameters in the tissue's order (``experiment.tissue.param_names``). Every row is checked against
+        its specification (moduli >= 0, gamma in [0, 1), beta > 0, ...); a bad value raises.
     full : bool
         Return a :class:`SimulationResult` with strains and fibre tensions on the simulation grid.
 
     Returns
     -------
     (n_obs,) or (n_sets, n_obs) ndarray of the observable at ``experiment.time_s`` (displacements in mm under force
-    control, forces in mN or nominal stresses in kPa under stretch control), NaN rows for sets whose solve failed;
-    or a SimulationResult if ``full``.
+    control, forces in mN or nominal stresses in kPa under stretch control; a last axis per channel where the load
+    case observes several), NaN rows for sets whose solve failed; or a SimulationResult if ``full``.
     """
     return ForwardModel(experiment)(params, full=full)

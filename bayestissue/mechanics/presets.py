@@ -19,21 +19,39 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bayestissue._validation import ValidationError
+from bayestissue.mechanics.laws import LawParameter
 from bayestissue.mechanics.tissue import PAPER_TISSUE, TissueConfig
-from bayestissue.paper import KIND_BOUNDS
 
-__all__ = ["TissuePreset", "PRESETS", "preset"]
+__all__ = ["BOX_KEYS", "TissuePreset", "PRESETS", "preset"]
+
+#: What a preset's boxes are keyed by: the component and the parameter's role (from its specification, never its
+#: name); a role not given keeps the law's default box.
+BOX_KEYS = ("matrix modulus", "fibre modulus", "viscous_fraction", "relaxation_rate")
 
 
 @dataclass(frozen=True)
 class TissuePreset:
-    """A named composition and the box of each parameter kind (``mu``, ``kappa``, ``ginf``, ``gamma``, ``beta``;
-    kPa, 1, 1/s)."""
+    """A named composition and the boxes of its parameters by :data:`BOX_KEYS` (kPa, 1, 1/s)."""
 
     name: str
     tissue: TissueConfig
     boxes: dict
     description: str
+
+    def box(self, component: str, spec: LawParameter) -> tuple[float, float, float]:
+        """``(lower, upper, initial)`` of a parameter of the ``"matrix"`` or ``"fibre"`` with specification ``spec``:
+        the preset's box for its component and role (a linear-scale modulus, which may be negative, takes
+        ``(-upper, upper)``), the initial value the box's midpoint (geometric on a log scale) where the box moved;
+        the law's default otherwise."""
+        key = f"{component} {spec.role}" if spec.role == "modulus" else spec.role
+        if key not in self.boxes:
+            return spec.lower, spec.upper, spec.initial
+        lo, hi = (float(x) for x in self.boxes[key])
+        if spec.scale == "linear" and spec.role == "modulus":
+            lo = -hi
+        if (lo, hi) == (spec.lower, spec.upper):
+            return lo, hi, spec.initial
+        return lo, hi, (lo * hi) ** 0.5 if spec.scale == "log" else 0.5 * (lo + hi)
 
 
 _MATRIX_ONLY = {"directions": [], "phi_fibres": [], "phi_matrix": 1.0, "bulk_kpa": 2.0e6}
@@ -41,25 +59,25 @@ _MATRIX_ONLY = {"directions": [], "phi_fibres": [], "phi_matrix": 1.0, "bulk_kpa
 PRESETS = {
     p.name: p
     for p in (
-        TissuePreset("slug", PAPER_TISSUE, KIND_BOUNDS, "the paper's slug-foot smooth muscle"),
+        TissuePreset("slug", PAPER_TISSUE, {}, "the paper's slug-foot smooth muscle"),
         TissuePreset(
             "tendon",
             TissueConfig(directions=[[1.0, 0.0, 0.0]], phi_fibres=[0.7], phi_matrix=0.3, bulk_kpa=2.0e6),
-            {"mu": (1e-2, 1e4), "kappa": (1e-2, 1e4), "ginf": (1e2, 1e7), "gamma": (0.1, 0.95), "beta": (1e-4, 10.0)},
+            {
+                "matrix modulus": (1e-2, 1e4),
+                "fibre modulus": (1e2, 1e7),
+                "viscous_fraction": (0.1, 0.95),
+                "relaxation_rate": (1e-4, 10.0),
+            },
             "tendon or ligament",
-        ),
-        TissuePreset(
-            "brain",
-            TissueConfig(**_MATRIX_ONLY),
-            {"mu": (1e-4, 100.0), "kappa": (1e-4, 100.0)},
-            "brain tissue",
-        ),
+        ),  # fmt: skip
+        TissuePreset("brain", TissueConfig(**_MATRIX_ONLY), {"matrix modulus": (1e-4, 100.0)}, "brain tissue"),
         TissuePreset(
             "rubber",
             TissueConfig(**_MATRIX_ONLY),
-            {"mu": (1.0, 1e5), "kappa": (1.0, 1e5)},
+            {"matrix modulus": (1.0, 1e5)},
             "rubber and other isotropic elastomers",
-        ),
+        ),  # fmt: skip
     )
 }
 
@@ -81,21 +99,24 @@ def presets_markdown() -> str:
         "",
         __doc__.strip().split("\n\n", 1)[1].replace("\n", " ").replace("``", "`"),
         "",
-        "| preset | composition | bulk modulus (kPa) | mu, kappa (kPa) | ginf (kPa) | gamma | beta (1/s) |",
-        "|---|---|---|---|---|---|---|",
+        "| preset | composition | bulk modulus (kPa) | " + " | ".join(BOX_KEYS) + " |",
+        "|---|---|---|" + "---|" * len(BOX_KEYS),
     ]
     for p in PRESETS.values():
-        t, b = p.tissue, p.boxes
-
-        def box(kind, b=b):
-            return f"[{b[kind][0]:g}, {b[kind][1]:g}]" if kind in b else "-"
-
+        t = p.tissue
         pairs = zip(t.phi_fibres, t.directions, strict=True)
         fibres = ", ".join(f"{phi:g} along ({', '.join(f'{x:.3g}' for x in v)})" for phi, v in pairs)
+        boxes = " | ".join(f"[{p.boxes[k][0]:g}, {p.boxes[k][1]:g}]" if k in p.boxes else "law default"
+                           for k in BOX_KEYS)  # fmt: skip
         lines.append(
             f"| `{p.name}` | {p.description}: matrix {t.phi_matrix:g}"
             + (f"; fibres {fibres}" if fibres else "")
-            + f" | {t.bulk_kpa:g} | {box('mu')}, {box('kappa')} | {box('ginf')} | {box('gamma')} | {box('beta')} |"
+            + f" | {t.bulk_kpa:g} | {boxes} |"
         )
-    lines += ["", "Priors: log-uniform on the box for mu, kappa, ginf and beta, uniform for gamma (as for Table 1)."]
+    lines += [
+        "",
+        "A preset's box applies to every parameter of that component and role (docs/laws.md: the law defaults are "
+        "the paper's Table 1 boxes for its laws); a modulus on a linear scale (one that may be negative, e.g. Yeoh's "
+        "c2) takes [-upper, upper]. Priors: log-uniform on a log-scale box, uniform on a linear one.",
+    ]
     return "\n".join(lines) + "\n"

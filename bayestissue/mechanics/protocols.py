@@ -23,8 +23,15 @@ that):
 - ``measured_stretch``: a measured stretch history (the data file's ``stretch`` column, or ``displacement_mm``
   divided by the specimen length), linearly interpolated.
 
+Shear-controlled kinds (``controls = "shear"``, for the simple-shear load case) prescribe the amount of shear
+:math:`\gamma(t)`:
+
+- ``shear_ramp``: a constant-rate ramp to ``shear`` over ``ramp_s`` seconds, then held;
+- ``measured_shear``: a measured history (the data file's ``shear`` column), linearly interpolated.
+
 Every protocol starts unloaded: the state at :math:`t = 0` is the reference one, the load acts from the first
-simulation step on (docs/model.md, initial state).
+simulation step on (docs/model.md, initial state). Which faces the history acts on is the load case's
+(``[protocol] mode``, :mod:`bayestissue.mechanics.loadcases`; uniaxial by default).
 """
 
 from __future__ import annotations
@@ -42,6 +49,8 @@ __all__ = [
     "StretchRampProtocol",
     "StretchCyclesProtocol",
     "MeasuredStretchProtocol",
+    "ShearRampProtocol",
+    "MeasuredShearProtocol",
     "PROTOCOLS",
     "protocol_from_mapping",
 ]
@@ -228,6 +237,61 @@ class MeasuredStretchProtocol:
         )
 
 
+@dataclass(frozen=True)
+class ShearRampProtocol:
+    """A constant-rate ramp of the amount of shear to ``shear`` over ``ramp_s`` seconds, then held."""
+
+    shear: float
+    ramp_s: float
+    kind = "shear_ramp"
+    controls = "shear"
+
+    def __post_init__(self):
+        check_finite("protocol.shear", self.shear)
+        check_positive("protocol.ramp_s", self.ramp_s)
+
+    def shear_at(self, time_s: np.ndarray) -> np.ndarray:
+        return self.shear * np.clip(np.asarray(time_s, dtype=float) / self.ramp_s, 0.0, 1.0)
+
+    @classmethod
+    def from_mapping(cls, d: dict, **_):
+        return cls(shear=_require(d, "shear"), ramp_s=_require(d, "ramp_s"))
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredShearProtocol:
+    """A measured history of the amount of shear (the data file's ``shear`` column), linearly interpolated; 0 at
+    t = 0."""
+
+    time_s: np.ndarray
+    shear: np.ndarray
+    kind = "measured_shear"
+    controls = "shear"
+
+    def __post_init__(self):
+        t = check_increasing("protocol shear time_s", self.time_s)
+        g = np.asarray(self.shear, dtype=float)
+        if g.shape != t.shape:
+            raise ValidationError("protocol shear", f"{g.size} samples", f"{t.size} (one per time sample)")
+        bad = np.flatnonzero(~np.isfinite(g))
+        if bad.size:
+            raise ValidationError("shear", f"{g[bad[0]]} at row {bad[0]}", "finite amounts of shear")
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "shear", g)
+
+    def shear_at(self, time_s: np.ndarray) -> np.ndarray:
+        return np.interp(np.asarray(time_s, dtype=float), np.r_[0.0, self.time_s], np.r_[0.0, self.shear])
+
+    @classmethod
+    def from_mapping(cls, d: dict, *, columns: dict | None = None, **_):
+        columns = columns or {}
+        col = d.get("shear_column", "shear")
+        if "time_s" in columns and col in columns:
+            return cls(time_s=columns["time_s"], shear=columns[col])
+        raise ValidationError("protocol.kind", "measured_shear", f"a data file with columns time_s and {col}",
+                              "a measured shear protocol takes its load from the data file")  # fmt: skip
+
+
 #: Protocol classes by the ``kind`` name used in experiment files.
 PROTOCOLS = {
     cls.kind: cls
@@ -238,6 +302,8 @@ PROTOCOLS = {
         StretchRampProtocol,
         StretchCyclesProtocol,
         MeasuredStretchProtocol,
+        ShearRampProtocol,
+        MeasuredShearProtocol,
     )
 }
 

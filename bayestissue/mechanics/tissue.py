@@ -1,9 +1,14 @@
-"""Tissue composition and the model's parameters: names, units, the paper's Table 1 and checks.
+"""Tissue composition and its constitutive laws: which laws, their parameters (specifications, names, order) and checks.
 
-The composite of docs/model.md: a Mooney-Rivlin matrix with volume fraction ``phi_matrix``, a volumetric penalty with
-bulk modulus ``bulk_kpa`` and ``n_f`` viscoelastic, tension-only fibre families with volume fractions ``phi_fibres``,
-unit directions ``directions`` and slack strains ``eps0`` (paper eq. (4)). The material parameters, in the paper's
-order, are ``mu, kappa`` then ``ginf_k, gamma_k, beta_k`` for each fibre family k = 1..n_f (Table 1 of docs/model.md).
+The composite of docs/model.md: a matrix law with volume fraction ``phi_matrix``, a volumetric penalty with bulk
+modulus ``bulk_kpa`` and ``n_f`` tension-only fibre families with volume fractions ``phi_fibres``, unit directions
+``directions`` and slack strains ``eps0`` (paper eq. (4)), each family following the fibre law; either law may carry a
+Prony series of relaxing branches (:mod:`~bayestissue.mechanics.laws`). The paper's model is the default: a
+Mooney-Rivlin matrix (elastic) and the linear fibre with one branch (the paper's Kelvin fibre), whose parameters, in
+the paper's order, are ``mu, kappa`` then ``ginf_k, gamma_k, beta_k`` for each family k (Table 1 of docs/model.md).
+
+Parameter order (the kernels' layout, :attr:`TissueConfig.layout`): the matrix law's, the matrix branches' (suffix
+``_m``), then for each family k the fibre law's and its branches' (suffix k; ``_k`` after a name ending in a digit).
 """
 
 from __future__ import annotations
@@ -13,37 +18,24 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive, check_unit_vector
-from bayestissue.paper import (
-    KIND_INITIAL,
-    PAPER_BULK_KPA,
-    PAPER_DIRECTIONS_PRINTED,
-    PAPER_PHI_FIBRES,
-    PAPER_PHI_MATRIX,
-    param_kind,
-)
+from bayestissue.mechanics.laws import FibreLaw, LawParameter, LinearFibre, MatrixLaw, MooneyRivlin
+from bayestissue.mechanics.laws.prony import branch_parameter_count, branch_parameters, check_branches
+from bayestissue.paper import PAPER_BULK_KPA, PAPER_DIRECTIONS_PRINTED, PAPER_PHI_FIBRES, PAPER_PHI_MATRIX
 
 __all__ = [
     "TissueConfig",
     "PAPER_TISSUE",
     "param_names",
-    "modulus_indices",
     "parse_parameters",
     "check_parameters",
 ]
 
 
-def modulus_indices(names) -> list[int]:
-    """Positions of the moduli (``mu``, ``kappa``, ``ginf<k>``) among parameter ``names``: what a stiffness scale
-    multiplies."""
-    return [i for i, n in enumerate(names) if param_kind(n) in ("mu", "kappa", "ginf")]
-
-
-def param_names(n_fibres: int = 3) -> tuple[str, ...]:
-    """Parameter names in the paper's order: ``mu, kappa, ginf1, gamma1, beta1, ..., beta<n_fibres>``."""
-    names = ["mu", "kappa"]
-    for k in range(1, n_fibres + 1):
-        names += [f"ginf{k}", f"gamma{k}", f"beta{k}"]
-    return tuple(names)
+def _suffixed(p: LawParameter, suffix: str) -> LawParameter:
+    """A fibre family's or the matrix branches' copy of ``p``: ``ginf`` + ``2`` -> ``ginf2``, ``k1`` + ``2`` ->
+    ``k1_2``."""
+    sep = "_" if p.name[-1].isdigit() and suffix[:1].isdigit() else ""
+    return p.renamed(f"{p.name}{sep}{suffix}")
 
 
 @dataclass(frozen=True)
@@ -70,6 +62,10 @@ class TissueConfig:
         Families (1-based) given a second Kelvin branch by
         :func:`~bayestissue.mechanics.branches.with_second_branch`; their second branches are the last
         ``len(second_branch)`` families (provenance; the directions and fractions already include them).
+    matrix, fibre : MatrixLaw, FibreLaw
+        The laws (:mod:`bayestissue.mechanics.laws`; default the paper's Mooney-Rivlin and linear fibre).
+    matrix_branches, fibre_branches : int
+        Prony branches of each law (default 0 and 1: an elastic matrix, the paper's Kelvin fibre).
     """
 
     directions: np.ndarray
@@ -79,6 +75,10 @@ class TissueConfig:
     eps0: np.ndarray | None = field(default=None)
     preset: str = "slug"
     second_branch: tuple = ()
+    matrix: MatrixLaw = field(default_factory=MooneyRivlin)
+    fibre: FibreLaw = field(default_factory=LinearFibre)
+    matrix_branches: int = 0
+    fibre_branches: int = 1
 
     def __post_init__(self):
         d = np.asarray(self.directions, dtype=float)
@@ -114,14 +114,68 @@ class TissueConfig:
         object.__setattr__(self, "second_branch", tuple(int(k) for k in self.second_branch))
         object.__setattr__(self, "phi_matrix", pm)
         object.__setattr__(self, "bulk_kpa", float(self.bulk_kpa))
+        if not isinstance(self.matrix, MatrixLaw):
+            raise ValidationError("tissue.matrix", self.matrix, "a matrix law (bayestissue.mechanics.laws)")
+        if not isinstance(self.fibre, FibreLaw):
+            raise ValidationError("tissue.fibre", self.fibre, "a fibre law (bayestissue.mechanics.laws)")
+        object.__setattr__(self, "matrix_branches", check_branches(self.matrix_branches, "tissue.matrix_branches"))
+        object.__setattr__(self, "fibre_branches", check_branches(self.fibre_branches, "tissue.fibre_branches"))
 
     @property
     def n_fibres(self) -> int:
         return self.directions.shape[0]
 
     @property
+    def parameters(self) -> tuple[LawParameter, ...]:
+        """The specification of every material parameter, in the kernels' order (module docstring)."""
+        specs = list(self.matrix.parameters()) + list(branch_parameters(self.matrix_branches, "_m"))
+        fibre = self.fibre.parameters()
+        for k in range(1, self.n_fibres + 1):
+            specs += [_suffixed(p, str(k)) for p in fibre]
+            specs += list(branch_parameters(self.fibre_branches, str(k)))
+        return tuple(specs)
+
+    @property
     def param_names(self) -> tuple[str, ...]:
-        return param_names(self.n_fibres)
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def layout(self) -> np.ndarray:
+        """The kernels' description of the laws: matrix code, its parameter count, option and branches; fibre code,
+        its parameter count, option and branches; the number of families (int64, 9 entries)."""
+        m, f = self.matrix, self.fibre
+        return np.array(
+            [m.code, m.n_parameters, m.kernel_options(), self.matrix_branches,
+             f.code, f.n_parameters, f.kernel_options(), self.fibre_branches, self.n_fibres],
+            dtype=np.int64,
+        )  # fmt: skip
+
+    @property
+    def n_parameters(self) -> int:
+        m = self.matrix.n_parameters + branch_parameter_count(self.matrix_branches)
+        return m + self.n_fibres * (self.fibre.n_parameters + branch_parameter_count(self.fibre_branches))
+
+    def components(self) -> tuple[str, ...]:
+        """``"matrix"`` or ``"fibre"`` for each parameter (where a preset's box for a role applies)."""
+        n_m = self.matrix.n_parameters + branch_parameter_count(self.matrix_branches)
+        return ("matrix",) * n_m + ("fibre",) * (self.n_parameters - n_m)
+
+    def family_parameters(self, k: int) -> tuple[str, ...]:
+        """The names of fibre family ``k``'s parameters (1-based), its law's then its branches'."""
+        start = self.matrix.n_parameters + branch_parameter_count(self.matrix_branches)
+        stride = self.fibre.n_parameters + branch_parameter_count(self.fibre_branches)
+        return self.param_names[start + (k - 1) * stride : start + k * stride]
+
+    def modulus_indices(self) -> list[int]:
+        """Positions of the moduli (role ``modulus``): what a stiffness scale multiplies (the stress is linear in
+        them at fixed exponents)."""
+        return [i for i, p in enumerate(self.parameters) if p.role == "modulus"]
+
+    @property
+    def is_paper_model(self) -> bool:
+        """The paper's laws: a Mooney-Rivlin matrix without branches, the linear fibre with one branch."""
+        return (self.matrix, self.fibre, self.matrix_branches, self.fibre_branches) == (
+            MooneyRivlin(), LinearFibre(), 0, 1)  # fmt: skip
 
 
 #: The paper's composition: three fibre families of 0.2 each, matrix 0.4, K = 1000 kPa, eps0 = 0 (docs/model.md).
@@ -133,16 +187,37 @@ PAPER_TISSUE = TissueConfig(
 )
 
 
-def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:
-    """Check material parameters row by row; return them as a float array of the same shape.
+def param_names(n_fibres: int = 3) -> tuple[str, ...]:
+    """The paper's parameter names for ``n_fibres`` families: ``mu, kappa, ginf1, gamma1, beta1, ..., beta<n>``."""
+    return tuple(["mu", "kappa"] + [f"{k}{j}" for j in range(1, n_fibres + 1) for k in ("ginf", "gamma", "beta")])
 
-    Moduli (mu, kappa, ginf_k) must be >= 0, gamma_k in [0, 1) (the discrete Kelvin update divides by
-    c = 1 - gamma exp(-beta dt / 2)) and beta_k > 0.
+
+def _admissible(p: LawParameter, col: np.ndarray) -> tuple[np.ndarray, str]:
+    """Where the kernels can evaluate a parameter's values, and what that is in words (from its specification)."""
+    if p.role == "viscous_fraction":  # the discrete update divides by c = 1 - gamma exp(-beta dt / 2)
+        return (col >= 0) & (col < 1), "a value in [0, 1)"
+    if p.role == "relaxation_rate":
+        return col > 0, "a rate > 0 (1/s)"
+    if p.role == "dispersion":
+        return (col >= 0) & (col <= 1.0 / 3.0), "a dispersion in [0, 1/3]"
+    if p.role == "recruitment_stretch":
+        return col >= 1, "a stretch >= 1"
+    if p.scale == "log" and p.role == "modulus":
+        return col >= 0, f"a modulus >= 0 ({p.unit})"
+    if p.scale == "log":
+        return col > 0, f"a value > 0 ({p.unit})"
+    return np.isfinite(col), "a finite number"
+
+
+def check_parameters(params, specs) -> np.ndarray:
+    """Check material parameters row by row against their specifications (``specs``: ``TissueConfig.parameters``);
+    return them as a float array of the same shape.
 
     Raises
     ------
-    ValidationError naming the row, the parameter and the value.
+    ValidationError naming the row, the parameter and the value (moduli >= 0, gamma in [0, 1), beta > 0, ...).
     """
+    names = tuple(s.name for s in specs)
     p = np.asarray(params, dtype=float)
     p2 = np.atleast_2d(p)
     if p2.ndim != 2 or p2.shape[1] != len(names):
@@ -151,32 +226,24 @@ def check_parameters(params, names: tuple[str, ...]) -> np.ndarray:
             f"array of shape {p.shape}",
             f"shape (n_sets, {len(names)}) in the order {names}",
         )
-    for j, name in enumerate(names):
+    for j, spec in enumerate(specs):
         col = p2[:, j]
-        kind = param_kind(name)
-        if kind == "gamma":
-            bad = ~((col >= 0) & (col < 1))
-            expected = "a value in [0, 1)"
-        elif kind == "beta":
-            bad = ~(col > 0)
-            expected = "a rate > 0 (1/s)"
-        else:
-            bad = ~(col >= 0)
-            expected = "a modulus >= 0 (kPa)"
-        bad |= ~np.isfinite(col)
+        good, expected = _admissible(spec, col)
+        bad = ~(good & np.isfinite(col))
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            field_name = name if p.ndim == 1 else f"params[{i}].{name}"
+            field_name = spec.name if p.ndim == 1 else f"params[{i}].{spec.name}"
             raise ValidationError(field_name, float(col[i]), expected)
     return p
 
 
-def parse_parameters(text: str, names: tuple[str, ...], *, base: np.ndarray | None = None) -> np.ndarray:
-    """Parse ``"mu=2.18,kappa=2.91,..."`` into a parameter vector, starting from ``base`` (default: the paper's
-    initial guess, the same for every fibre family) for the names not given. Unknown names raise a ValidationError
-    listing the known ones."""
+def parse_parameters(text: str, specs, *, base: np.ndarray | None = None) -> np.ndarray:
+    """Parse ``"mu=2.18,kappa=2.91,..."`` into a parameter vector, starting from ``base`` (default: each parameter's
+    initial value, :attr:`LawParameter.initial`) for the names not given. Unknown names raise a ValidationError listing
+    the known ones."""
+    names = tuple(s.name for s in specs)
     if base is None:
-        base = [KIND_INITIAL[param_kind(n)] for n in names]
+        base = [s.initial for s in specs]
     values = np.array(base, dtype=float)
     given = set()
     for item in filter(None, (s.strip() for s in text.split(","))):
@@ -193,4 +260,4 @@ def parse_parameters(text: str, names: tuple[str, ...], *, base: np.ndarray | No
             values[names.index(key)] = float(val)
         except ValueError:
             raise ValidationError(f"--params {key}", val, "a number") from None
-    return check_parameters(values, names)
+    return check_parameters(values, specs)

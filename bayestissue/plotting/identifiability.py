@@ -40,13 +40,13 @@ def _grid(n, ncols=4, size=(3.2, 2.6)):
     return fig, axes.ravel()
 
 
-def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, threshold: float = 3.84, ymax=12.0):
+def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, threshold: float = 3.84, ymax=12.0,
+                  units: Mapping[str, str] | None = None):  # fmt: skip
     """Profile likelihoods :math:`\\Delta\\chi^2` per parameter (one panel each), one curve per analysis.
 
-    ``profiles`` maps a label (``"T1"``) to a list of ProfileResult (any order; matched by
-    ``name``).
+    ``profiles`` maps a label (``"T1"``) to a list of ProfileResult (any order; matched by ``name``); ``units`` the
+    unit of each parameter for the axis labels.
     """
-    from bayestissue.paper import PARAM_UNITS, param_kind
     from bayestissue.plotting.style import FONT
 
     fig, axes = _grid(len(names), ncols=min(len(names), 4), size=(3.4, 3.4))
@@ -68,7 +68,7 @@ def plot_profiles(profiles: Mapping[str, Sequence], names: Sequence[str], *, thr
         ax.axhline(threshold, color="k", lw=0.8, ls="--")
         ax.set_xscale("log")
         ax.set_ylim(-0.5, ymax)
-        unit = PARAM_UNITS.get(param_kind(name), "")
+        unit = (units or {}).get(name, "")
         ax.set_xlabel(f"{name} ({unit})" if unit and unit != "1" else name, fontsize=FONT["label"])
         ax.tick_params(labelsize=FONT["tick"])
         # below the panel: the identifiability class of each curve, never over the curves

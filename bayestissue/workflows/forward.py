@@ -4,11 +4,11 @@ A plain experiment's forward is :class:`bayestissue.mechanics.ForwardModel` itse
 This module adds what the studies need beyond the material parameters:
 
 * :class:`SpecimenForward` -- one experiment under *specimen-level* parameters appended to the material
-  parameters (one kind, or ``"angle+scale"`` for both): ``"scale"`` multiplies every modulus (mu, kappa, ginf_k)
-  of that specimen by :math:`s` (a stiffer or softer piece of the sole, cause 3 of the paper), ``"angle"`` sets
-  the in-plane half-angle :math:`\alpha` (degrees) of fibre families 2 and 3,
-  :math:`v_{2,3} = (\cos\alpha, \pm\sin\alpha, 0)` (the paper's directions have :math:`\alpha = 20.05^\circ`;
-  cause 2).
+  parameters (one kind, or ``"angle+scale"`` for both): ``"scale"`` multiplies every modulus (the parameters of
+  role ``modulus``: mu, kappa, ginf_k for the paper's laws) of that specimen by :math:`s` (a stiffer or softer
+  piece of the sole, cause 3 of the paper), ``"angle"`` sets the in-plane half-angle :math:`\alpha` (degrees) of
+  fibre families 2 and 3, :math:`v_{2,3} = (\cos\alpha, \pm\sin\alpha, 0)` (the paper's directions have
+  :math:`\alpha = 20.05^\circ`; cause 2).
 * :class:`ExperimentResiduals` -- stacked scaled residuals :math:`(y_{obs} - u(\theta))/\sigma` of one or several
   experiments, for profile likelihoods and scaled sensitivities.
 """
@@ -22,7 +22,6 @@ import numpy as np
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference import ParameterSpec
 from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig, param_names
-from bayestissue.mechanics.tissue import modulus_indices
 from bayestissue.paper import MIRROR_TIES, PAPER_HALF_ANGLE_DEG
 
 __all__ = [
@@ -96,9 +95,8 @@ class SpecimenForward:
     def __init__(self, experiment: Experiment, kind: str | None = None):
         self.experiment, self.kinds = experiment, specimen_kinds(kind)
         self.model = ForwardModel(experiment)
-        names = experiment.tissue.param_names
-        self.n_material = len(names)
-        self.moduli = modulus_indices(names)
+        self.n_material = len(experiment.tissue.param_names)
+        self.moduli = experiment.tissue.modulus_indices()
 
     def __call__(self, params) -> np.ndarray:
         p = np.atleast_2d(np.asarray(params, dtype=float))

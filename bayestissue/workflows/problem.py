@@ -17,58 +17,66 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 from bayestissue.inference import CalibrationProblem, ExperimentTerm, ParameterSet, ParameterSpec, make_noise
-from bayestissue.mechanics import ForwardModel, param_names, parse_parameters
+from bayestissue.mechanics import PAPER_TISSUE, ForwardModel, TissueConfig, parse_parameters
 from bayestissue.mechanics.presets import preset
-from bayestissue.paper import KIND_BOUNDS, KIND_INITIAL, PAPER_PARAMETERS, PARAM_UNITS, param_kind
+from bayestissue.paper import PAPER_PARAMETERS
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.forward import SpecimenForward, noise_sd, specimen_kinds, specimen_spec
 
-__all__ = ["paper_parameter_set", "build_problem", "creep_geometry", "reference_stretch", "reference_values"]
+__all__ = [
+    "build_problem",
+    "creep_geometry",
+    "paper_parameter_set",
+    "parameter_set",
+    "reference_stretch",
+    "reference_values",
+]
 
 
-def paper_parameter_set(
-    n_fibres: int = 3, *, prior: str = "default", fixed_inputs: Mapping | None = None, boxes: Mapping | None = None
-) -> ParameterSet:
-    """The paper's parameters with Table 1 bounds and the paper's initial guess as ``value``.
+def parameter_set(tissue, *, prior: str = "default", fixed_inputs: Mapping | None = None) -> ParameterSet:
+    """The material parameters of ``tissue``'s laws as the inference layer's parameter set.
+
+    Every parameter's box, unit, scale and initial value come from its law's specification
+    (:attr:`~bayestissue.mechanics.TissueConfig.parameters`), its box moved by the tissue's preset for its component
+    and role (:meth:`~bayestissue.mechanics.presets.TissuePreset.box`).
 
     Parameters
     ----------
-    n_fibres : number of fibre systems (3 in the paper: 2 + 3 n_f parameters; 0 for a matrix-only material); every
-        family takes Table 1's box and initial guess.
-    prior : ``"default"`` (log-uniform for the positive scale parameters mu, kappa, ginf_k, beta_k and uniform
-        for gamma_k) or ``"uniform"`` (uniform on the box for all: the literal reading of the paper's
-        constraints).
+    tissue : TissueConfig
+    prior : ``"default"`` (log-uniform on a log-scale box, uniform on a linear one) or ``"uniform"`` (uniform on
+        every box: the literal reading of the paper's constraints).
     fixed_inputs : recorded non-parameter inputs (volume fractions, directions, K, eps0).
-    boxes : the box of each parameter kind (``mu``, ..., ``beta``) where it differs from Table 1 (a tissue preset's,
-        :mod:`bayestissue.mechanics.presets`); the initial value is then the box's geometric (gamma: arithmetic)
-        midpoint.
 
     References
     ----------
-    Paper Section 3.2 and Table 1 (:data:`bayestissue.paper.KIND_BOUNDS`, :data:`~bayestissue.paper.KIND_INITIAL`).
+    Paper Section 3.2 and Table 1 (the defaults of the paper's laws, :mod:`bayestissue.mechanics.laws`).
     """
     if prior not in ("default", "uniform"):
         raise ValidationError("prior", prior, "'default' or 'uniform'")
+    box = preset(tissue.preset)
     specs = []
-    for name in param_names(n_fibres):
-        prefix = param_kind(name)
-        p = "uniform" if (prior == "uniform" or prefix == "gamma") else "loguniform"
-        (lo, hi), value = KIND_BOUNDS[prefix], KIND_INITIAL[prefix]
-        if boxes and prefix in boxes and tuple(boxes[prefix]) != (lo, hi):
-            lo, hi = (float(x) for x in boxes[prefix])
-            value = 0.5 * (lo + hi) if prefix == "gamma" else float(np.sqrt(lo * hi))
+    for spec, component in zip(tissue.parameters, tissue.components(), strict=True):
+        lo, hi, value = box.box(component, spec)
         specs.append(
             ParameterSpec(
-                name=name,
-                unit=PARAM_UNITS[prefix],
+                name=spec.name,
+                unit=spec.unit,
                 lower=lo,
                 upper=hi,
-                prior=p,
-                scale="linear" if prefix == "gamma" else "log",
+                prior="loguniform" if spec.scale == "log" and prior == "default" else "uniform",
+                scale=spec.scale,
                 value=value,
             )
         )
     return ParameterSet(tuple(specs), dict(fixed_inputs or {}))
+
+
+def paper_parameter_set(n_fibres: int = 3, *, prior: str = "default", fixed_inputs: Mapping | None = None):
+    """The paper's laws (Mooney-Rivlin matrix, Kelvin fibres) for ``n_fibres`` families: Table 1's boxes and the
+    paper's initial guess (:func:`parameter_set` of such a tissue)."""
+    d = np.tile([[1.0, 0.0, 0.0]], (n_fibres, 1))
+    tissue = PAPER_TISSUE if n_fibres == 3 else TissueConfig(d, [0.0] * n_fibres, 1.0)
+    return parameter_set(tissue, prior=prior, fixed_inputs=fixed_inputs)
 
 
 def reference_values(experiment) -> dict[str, np.ndarray]:
@@ -79,8 +87,7 @@ def reference_values(experiment) -> dict[str, np.ndarray]:
         out["paper"] = np.asarray(PAPER_PARAMETERS[experiment.name], dtype=float)
     gen = (experiment.meta or {}).get("generating_parameters")
     if gen:
-        names = param_names(experiment.tissue.n_fibres)
-        out["generating"] = parse_parameters(re.sub(r"\s+", "", str(gen)), names)
+        out["generating"] = parse_parameters(re.sub(r"\s+", "", str(gen)), experiment.tissue.parameters)
         if experiment.noise_sd_mm is not None:
             out["noise_sd"] = float(experiment.noise_sd_mm)
     return out
@@ -132,9 +139,11 @@ def _material(experiments, config: CalibrationConfig) -> ParameterSet:
     presets = {e.tissue.preset for e in experiments}
     if len(presets) != 1:
         raise ValidationError("experiments' tissue presets", sorted(presets), "one preset (one material)")
-    material = paper_parameter_set(
-        n_f.pop(), prior=config.prior, fixed_inputs=_fixed_inputs(experiments), boxes=preset(presets.pop()).boxes
-    )
+    laws = {e.tissue.param_names for e in experiments}
+    if len(laws) != 1:
+        raise ValidationError("experiments' laws", sorted(", ".join(n) for n in laws),
+                              "the same laws (one material: the same parameters)")  # fmt: skip
+    material = parameter_set(experiments[0].tissue, prior=config.prior, fixed_inputs=_fixed_inputs(experiments))
     fixed = config.fixed
     fixed_map = dict(fixed) if isinstance(fixed, Mapping) else {n: None for n in fixed}
     if config.sampled is not None:

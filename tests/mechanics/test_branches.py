@@ -7,7 +7,15 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.mechanics import CreepProtocol, Experiment, ForwardModel, TissueConfig, load_experiment, simulate
+from bayestissue.mechanics import (
+    PAPER_TISSUE,
+    CreepProtocol,
+    Experiment,
+    ForwardModel,
+    TissueConfig,
+    load_experiment,
+    simulate,
+)
 from bayestissue.mechanics.branches import branch_relaxation, second_branch_ties, with_second_branch
 from bayestissue.mechanics.protocols import StretchRampProtocol
 from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS
@@ -83,6 +91,6 @@ def test_experiment_file_key(tmp_path):
 
 
 def test_ties_follow_the_branches():
-    ties = second_branch_ties(MIRROR_TIES, 3, [2, 3])
+    ties = second_branch_ties(MIRROR_TIES, with_second_branch(PAPER_TISSUE, [2, 3]))
     assert set(ties) - set(MIRROR_TIES) == {("ginf5", "ginf4"), ("gamma5", "gamma4"), ("beta5", "beta4")}
-    assert second_branch_ties(MIRROR_TIES, 3, [2]) == MIRROR_TIES
+    assert second_branch_ties(MIRROR_TIES, with_second_branch(PAPER_TISSUE, [2])) == MIRROR_TIES

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from bayestissue.mechanics import PAPER_TISSUE
+from bayestissue.mechanics.composite import composite_stress_tangent
 from bayestissue.mechanics.fibres import fibre_structure
 from bayestissue.mechanics.kinematics import from_voigt, to_voigt
 from bayestissue.mechanics.reference import reference_stress
-from bayestissue.mechanics.uniaxial import _residual
+from bayestissue.mechanics.solver import _loads
 
 M = fibre_structure(PAPER_TISSUE.directions)
 PHI = np.ascontiguousarray(PAPER_TISSUE.phi_fibres)
@@ -17,30 +18,22 @@ GINF = np.array([30.0, 10.0, 20.0])
 C_K = np.array([0.5, 0.3, 0.8])
 
 
+PARAMS = np.array([MU, KAPPA, *np.column_stack([GINF, [0.5] * 3, [1.0] * 3]).ravel()])  # gamma, beta: only c, q act
+
+
 def stress(e, q, *, load=0.0, tangent=False):
-    S, D, tau = np.empty(6), np.empty((6, 6)), np.empty(3)
-    J = _residual(
-        np.asarray(e, float),
-        load,
-        MU,
-        KAPPA,
-        PHI_M,
-        K,
-        M,
-        PHI,
-        GINF,
-        EPS0,
-        C_K,
-        q,
-        S,
-        tau,
-        D,
-        tangent,
-        np.empty((3, 3)),
-        np.empty((3, 3)),
-    )
+    """The composite's stress (minus a dead load P11 = ``load`` on face x) with fixed Kelvin constants ``C_K`` and
+    history terms ``q`` (one branch per family)."""
+    S, D, tau, e = np.empty(6), np.empty((6, 6)), np.empty((3, 1)), np.asarray(e, float)
+    scr = tuple(np.empty(s) for s in ((3, 3), (3, 3), 3, (3, 3), (3, 3), 6, 6))
+    J = composite_stress_tangent(e, PARAMS, PAPER_TISSUE.layout, M, PHI, PHI_M, K, EPS0, np.ones(1), np.zeros((1, 6)),
+                                 C_K[:, None].copy(), np.asarray(q, float)[:, None].copy(), S, D, np.empty((1, 6)), tau,
+                                 tangent, np.empty(6), np.empty((6, 6)), scr)  # fmt: skip
     assert J > 0
-    return S, D, tau
+    values = np.zeros((2, 6))
+    values[1, 0] = load
+    _loads(e, np.array([1, 0, 0, 0, 0, 0]), values, 1, S, D, tangent)
+    return S, D, tau[:, 0]
 
 
 def fd_tangent(e, q, h=1e-6):

@@ -167,21 +167,20 @@ def test_bad_parameter_values(name, value, match):
     p = np.ones(11) * 0.5
     p[names.index(name)] = value
     with pytest.raises(ValidationError, match=match):
-        check_parameters(p, names)
+        check_parameters(p, PAPER_TISSUE.parameters)
     with pytest.raises(ValidationError, match=r"params\[1\]\." + match):
-        check_parameters(np.vstack([np.full(11, 0.5), p]), names)
+        check_parameters(np.vstack([np.full(11, 0.5), p]), PAPER_TISSUE.parameters)
 
 
 def test_parse_parameters():
-    names = param_names(3)
-    p = parse_parameters("mu=2, beta3=0.01", names)
+    p = parse_parameters("mu=2, beta3=0.01", PAPER_TISSUE.parameters)
     assert p[0] == 2 and p[10] == 0.01 and p[1] == 50
     with pytest.raises(ValidationError, match="--params: expected one of the parameter names mu, kappa"):
-        parse_parameters("nu=2", names)
+        parse_parameters("nu=2", PAPER_TISSUE.parameters)
     with pytest.raises(ValidationError, match="--params: expected name=value pairs"):
-        parse_parameters("mu:2", names)
+        parse_parameters("mu:2", PAPER_TISSUE.parameters)
     with pytest.raises(ValidationError, match="--params mu: expected a number, got 'abc'"):
-        parse_parameters("mu=abc", names)
+        parse_parameters("mu=abc", PAPER_TISSUE.parameters)
 
 
 def test_tissue_defaults_are_the_papers():

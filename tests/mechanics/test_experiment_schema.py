@@ -51,7 +51,12 @@ def _with(table, key, value):
             "relax",
             r"\[protocol\] kind: expected one of \['creep', 'ramp', 'measured', 'stretch_ramp'",
         ),
-        ("protocol", "hold_s", 5.0, r"\[protocol\] key: expected one of \['kind', 'stress_kpa'\], got 'hold_s'"),
+        (
+            "protocol",
+            "hold_s",
+            5.0,
+            r"\[protocol\] key: expected one of \['kind', 'mode', 'ratio', 'stress_kpa'\], got 'hold_s'",
+        ),
         ("tissue", "directions", [[0, "y", 0]], r"\[tissue\] directions: expected a list of \[x, y, z\] rows"),
         ("tissue", "phi_fibres", 0.6, r"\[tissue\] phi_fibres: expected a list of numbers, got 0.6"),
         ("data", "file", 3, r"\[data\] file: expected a string, got 3"),

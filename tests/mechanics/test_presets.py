@@ -37,7 +37,7 @@ def test_tendon_preset_composition_and_boxes(tmp_path):
     (tmp_path / "x.toml").write_text(text)
     problem = build_problem([load_experiment(tmp_path / "x.toml")], config_from_mapping(None))
     specs = {s.name: s for s in problem.material.specs}
-    assert (specs["ginf1"].lower, specs["ginf1"].upper) == PRESETS["tendon"].boxes["ginf"]
+    assert (specs["ginf1"].lower, specs["ginf1"].upper) == PRESETS["tendon"].boxes["fibre modulus"]
     assert specs["ginf1"].value == pytest.approx(np.sqrt(1e2 * 1e7))
     assert (specs["gamma1"].lower, specs["gamma1"].upper) == (0.1, 0.95)
     bounded = build_problem(

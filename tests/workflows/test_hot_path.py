@@ -35,7 +35,7 @@ def _batch(problem, n=6):
 def test_at_most_four_frames_from_the_sampler_target_to_the_kernel(monkeypatch):
     problem = _t1_problem()
     z = _batch(problem)
-    kernel, chains = forward_module.solve_uniaxial_batch, []
+    kernel, chains = forward_module.solve_batch, []
 
     def recording(*args):
         frame, names = sys._getframe(1), []
@@ -45,7 +45,7 @@ def test_at_most_four_frames_from_the_sampler_target_to_the_kernel(monkeypatch):
         chains.append([*names, "log_posterior_unconstrained"][::-1])
         return kernel(*args)
 
-    monkeypatch.setattr(forward_module, "solve_uniaxial_batch", recording)
+    monkeypatch.setattr(forward_module, "solve_batch", recording)
     lp = problem.log_posterior_unconstrained(z)
     assert np.all(np.isfinite(lp))
     assert chains == [["log_posterior_unconstrained", "log_posterior", "log_likelihood", "__call__"]]

@@ -1,4 +1,4 @@
-r"""Mooney-Rivlin matrix and volumetric penalty: second Piola-Kirchhoff stress and consistent tangent.
+r"""Mooney-Rivlin matrix (the paper's) with the volumetric penalty: second Piola-Kirchhoff stress, consistent tangent.
 
 Stress (docs/model.md; paper eq. (4) with its first bracket corrected to the standard total-Lagrangian neo-Hookean
 form):
@@ -30,6 +30,13 @@ Tangent :math:`\partial S / \partial E = 2\,\partial S / \partial C` with
       + (J^2 - J) \frac{\partial C^{-1}}{\partial C}\right].
 
 In Voigt form the tangent column of a shear component counts both :math:`E_{cd}` and :math:`E_{dc}` (factor 2).
+
+The penalty is computed in the same kernel: the paper's arithmetic, kept as it was so that the paper's model gives the
+same bits (a viscoelastic matrix calls it with ``bulk = 0`` for the isochoric part alone,
+:mod:`~bayestissue.mechanics.laws.volumetric` adds the penalty). Neo-Hookean is this law with :math:`\kappa = 0`.
+
+References: Mooney (1940) J Appl Phys 11:582, doi:10.1063/1.1712836; Rivlin (1948) Phil Trans R Soc A 241:379,
+doi:10.1098/rsta.1948.0024; paper eq. (4).
 """
 
 from __future__ import annotations
@@ -38,15 +45,22 @@ import numpy as np
 
 from bayestissue.mechanics._jit import kernel
 from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J, right_cauchy_green
+from bayestissue.mechanics.laws.base import LawParameter, MatrixLaw
 
-__all__ = ["matrix_stress_tangent", "matrix_energy", "matrix_modulus_derivatives"]
+__all__ = [
+    "MooneyRivlin",
+    "invariants",
+    "mooney_rivlin_derivatives",
+    "mooney_rivlin_energy",
+    "mooney_rivlin_stress_tangent",
+]
 
 _VI = VOIGT_I
 _VJ = VOIGT_J
 
 
 @kernel
-def _invariants(C):
+def invariants(C):
     """:math:`I_1 = \\mathrm{tr}\\, C` and :math:`I_2 = \\tfrac12 (I_1^2 - \\mathrm{tr}\\, C^2)` of the 3x3 ``C``."""
     I1 = C[0, 0] + C[1, 1] + C[2, 2]
     trC2 = 0.0
@@ -57,7 +71,7 @@ def _invariants(C):
 
 
 @kernel
-def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
+def mooney_rivlin_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
     """Matrix + penalty stress ``S`` (6,) and, if ``want_tangent``, tangent ``D`` (6, 6) at Voigt strain ``e``.
 
     ``D[i, j] = dS_i / de_j`` with ``e_j`` the independent Voigt components; ``C`` and ``Ci`` are (3, 3) scratch
@@ -67,7 +81,7 @@ def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
     if not (det > 0.0):
         return -1.0
     J = np.sqrt(det)
-    I1, I2 = _invariants(C)
+    I1, I2 = invariants(C)
     jm23 = 1.0 / np.cbrt(det)  # J^(-2/3) = det(C)^(-1/3)
     jm43 = jm23 * jm23
     a_nh = phi_m * mu * jm23
@@ -111,23 +125,23 @@ def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
 
 
 @kernel
-def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
+def mooney_rivlin_energy(e, mu, kappa, phi_m, bulk, C, Ci):
     """Strain energy W (kPa) of matrix + penalty at Voigt strain ``e`` (NaN if J <= 0); see the module docstring."""
     det = right_cauchy_green(e, C, Ci)
     if not (det > 0.0):
         return np.nan
     J = np.sqrt(det)
-    I1, I2 = _invariants(C)
+    I1, I2 = invariants(C)
     jm23 = 1.0 / np.cbrt(det)
     return 0.5 * phi_m * (mu * (jm23 * I1 - 3.0) + kappa * (jm23 * jm23 * I2 - 3.0)) + 0.5 * bulk * (J - 1.0) ** 2
 
 
 @kernel
-def matrix_modulus_derivatives(J, phi_m, C, Ci, dmu, dkappa):
+def mooney_rivlin_derivatives(J, phi_m, C, Ci, dmu, dkappa):
     r"""``dmu``, ``dkappa`` (6,): :math:`\partial S_m/\partial\mu = \phi_m J^{-2/3}(I - \tfrac{I_1}{3} C^{-1})` and
     :math:`\partial S_m/\partial\kappa = \phi_m J^{-4/3}(I_1 I - C - \tfrac23 I_2 C^{-1})` (the matrix stress is
-    linear in both moduli), from ``J``, ``C`` and ``Ci`` as :func:`matrix_stress_tangent` left them."""
-    I1, I2 = _invariants(C)
+    linear in both moduli), from ``J``, ``C`` and ``Ci`` as :func:`mooney_rivlin_stress_tangent` left them."""
+    I1, I2 = invariants(C)
     jm23 = 1.0 / np.cbrt(J * J)
     for i in range(6):
         a = _VI[i]
@@ -135,3 +149,26 @@ def matrix_modulus_derivatives(J, phi_m, C, Ci, dmu, dkappa):
         dab = 1.0 if a == b else 0.0
         dmu[i] = phi_m * jm23 * (dab - I1 / 3.0 * Ci[a, b])
         dkappa[i] = phi_m * jm23 * jm23 * (I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b])
+
+
+class MooneyRivlin(MatrixLaw):
+    r"""Mooney-Rivlin: :math:`W = \phi_m [\tfrac{\mu}{2}(\bar I_1 - 3) + \tfrac{\kappa}{2}(\bar I_2 - 3)]`
+    (module docstring; the paper's matrix, eq. (4))."""
+
+    name = "mooney_rivlin"
+    code = 0
+    title = "Mooney-Rivlin: the paper's matrix, two moduli (of the first and second invariant)"
+    reference = "Mooney 1940, doi:10.1063/1.1712836; Rivlin 1948, doi:10.1098/rsta.1948.0024"
+
+    def parameters(self):
+        return (
+            LawParameter("mu", "kPa", 0.001, 1000.0, "log", "modulus", 10.0, "modulus of the first invariant"),
+            LawParameter("kappa", "kPa", 0.001, 1000.0, "log", "modulus", 50.0, "modulus of the second invariant"),
+        )
+
+    def energy_reference(self, C, params):
+        mu, kappa = params
+        det = np.linalg.det(C)
+        i1 = np.trace(C)
+        i2 = 0.5 * (i1 * i1 - np.trace(C @ C))
+        return 0.5 * mu * (det ** (-1 / 3) * i1 - 3.0) + 0.5 * kappa * (det ** (-2 / 3) * i2 - 3.0)

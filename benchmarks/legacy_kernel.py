@@ -1,33 +1,6 @@
-r"""The reduced FE model of a uniaxial test, batched over parameter sets.
-
-A homogeneous block :math:`L_x \times L_y \times L_z` under a dead load along x with traction-free lateral faces
-deforms homogeneously, so one element with one quadrature point is exact (docs/model.md). With the rigid rotation fixed
-so that :math:`F e_1 \parallel e_1`, equilibrium at every time step reads
-
-.. math:: S(E) = \frac{P_{11}}{\sqrt{C_{11}}}\, e_1 \otimes e_1,
-
-six equations for the six components of the symmetric Green strain :math:`E` (F is *not* forced diagonal: fibre
-families that are not mirror-symmetric about x shear the block). They are solved by Newton's method with the
-consistent tangent of :mod:`~bayestissue.mechanics.matrix` and :mod:`~bayestissue.mechanics.fibres`, the Jacobian
-entry :math:`\partial R_{11}/\partial E_{11}` gaining :math:`P_{11} C_{11}^{-3/2}` from the dead load, safeguarded by
-backtracking: a step is accepted when :math:`\|R\|_2` decreases or, failing that, when the incremental potential
-:math:`\Pi = W(E) - P_{11}(\sqrt{C_{11}} - 1)` (whose gradient is :math:`R`; the fibre part is the piecewise quadratic
-of :func:`~bayestissue.mechanics.fibres.fibre_energy`) satisfies Armijo's condition; otherwise the step is halved,
-also whenever :math:`J \le 0`. The potential criterion matters when stiff fibres meet a soft matrix: there the
-residual norm is a poor merit function and Newton steps that lower the energy would be rejected. The observable is the
-x-displacement of the loaded face, :math:`u = (\sqrt{C_{11}} - 1) L_x`.
-
-Under stretch control (``stretch_control``: displacement-controlled tests, the load history is then the prescribed
-stretch :math:`\lambda_n` of the loaded face) :math:`E_{11} = (\lambda_n^2 - 1)/2` is fixed and the other five
-equations :math:`S_{ij}(E) = 0`, :math:`ij \ne 11` (traction-free lateral faces; the block may still shear) are solved
-for the five free components: row and column 11 of the tangent are replaced by the identity, so the Newton step leaves
-:math:`E_{11}` alone, and the potential is :math:`W(E)` over the free components. The observable is then the nominal
-stress on the loaded face, :math:`P_{11} = \lambda_n S_{11}` (with :math:`S = S_{11} e_1 \otimes e_1` at
-equilibrium, the traction :math:`P e_1 = F S e_1 = S_{11} F e_1` is along x), evaluated at the converged strain.
-
-A parameter set whose solve fails (no convergence in ``MAX_ITER`` iterations, :math:`J \le 0`, a singular tangent,
-NaN) is flagged: its row of the output is NaN and ``ok`` is False; the other rows are unaffected.
-"""
+"""The forward kernel as it was before the laws became plug-ins (commit cb83b05), frozen as the speed and bitwise
+baseline of benchmarks/bench_forward.py and tests/mechanics/test_plugin_equivalence.py: the paper's Mooney-Rivlin
+matrix and Kelvin fibres in one uniaxial time loop. Not used by the package."""
 
 from __future__ import annotations
 
@@ -36,27 +9,162 @@ from numba import njit
 
 from bayestissue.mechanics._jit import FASTMATH as _FASTMATH
 from bayestissue.mechanics._jit import kernel
-from bayestissue.mechanics.fibres import (
-    fibre_energy,
-    fibre_stress_tangent,
-    fibre_tension,
-    kelvin_history_update,
-    kelvin_step_constants,
-)
-from bayestissue.mechanics.matrix import matrix_energy, matrix_stress_tangent
+from bayestissue.mechanics.kinematics import VOIGT_I, VOIGT_J, right_cauchy_green
 
-__all__ = ["solve_uniaxial_batch", "MAX_ITER", "MAX_HALVINGS", "RTOL", "STEP_TOL"]
+__all__ = ["legacy_solve_uniaxial_batch"]
 
-#: Newton iterations allowed per time step before the set is declared failed.
+_VI = VOIGT_I
+_VJ = VOIGT_J
 MAX_ITER = 60
-#: Step halvings allowed per Newton iteration (backtracking line search).
 MAX_HALVINGS = 40
-#: Residual tolerance relative to max(|P11|, 1 kPa): ||R||_inf <= RTOL * max(|P11|, 1) kPa.
 RTOL = 1e-10
-#: A full Newton step smaller than this (max-norm of the strain increment) ends the iteration: with quadratic
-#: convergence the remaining strain error is ~ k STEP_TOL^2 ~ 1e-11 (k ~ 10 here), i.e. < 1e-10 mm of displacement
-#: against data noise of ~0.02 mm; tests compare whole curves with an independent solver to 1e-8 mm.
 STEP_TOL = 1e-6
+
+
+@kernel
+def _invariants(C):
+    """:math:`I_1 = \\mathrm{tr}\\, C` and :math:`I_2 = \\tfrac12 (I_1^2 - \\mathrm{tr}\\, C^2)` of the 3x3 ``C``."""
+    I1 = C[0, 0] + C[1, 1] + C[2, 2]
+    trC2 = 0.0
+    for a in range(3):
+        for b in range(3):
+            trC2 += C[a, b] * C[a, b]
+    return I1, 0.5 * (I1 * I1 - trC2)
+
+
+@kernel
+def matrix_stress_tangent(e, mu, kappa, phi_m, bulk, S, D, want_tangent, C, Ci):
+    """Matrix + penalty stress ``S`` (6,) and, if ``want_tangent``, tangent ``D`` (6, 6) at Voigt strain ``e``.
+
+    ``D[i, j] = dS_i / de_j`` with ``e_j`` the independent Voigt components; ``C`` and ``Ci`` are (3, 3) scratch
+    arrays (no allocation in the hot loop). Returns J (<= 0: inadmissible state, ``S`` and ``D`` undefined).
+    """
+    det = right_cauchy_green(e, C, Ci)
+    if not (det > 0.0):
+        return -1.0
+    J = np.sqrt(det)
+    I1, I2 = _invariants(C)
+    jm23 = 1.0 / np.cbrt(det)  # J^(-2/3) = det(C)^(-1/3)
+    jm43 = jm23 * jm23
+    a_nh = phi_m * mu * jm23
+    a_mr = phi_m * kappa * jm43
+    pv = bulk * (J - 1.0) * J
+    for i in range(6):
+        a = _VI[i]
+        b = _VJ[i]
+        dab = 1.0 if a == b else 0.0
+        S[i] = (
+            a_nh * (dab - I1 / 3.0 * Ci[a, b]) + a_mr * (I1 * dab - C[a, b] - 2.0 / 3.0 * I2 * Ci[a, b]) + pv * Ci[a, b]
+        )
+    if not want_tangent:
+        return J
+    # Grouped form of the tangent (same terms as the module docstring, collected by tensor structure):
+    # dS/dC = alpha Ci(x)Ci + beta dCi/dC + G(x)Ci + Ci(x)G + a_mr (I(x)I - II),
+    # G = -a_nh/3 I - 2 a_mr/3 (I1 I - C).
+    alpha = a_nh * I1 / 9.0 + a_mr * 4.0 / 9.0 * I2 + bulk * (2.0 * J - 1.0) * J * 0.5
+    beta = -a_nh * I1 / 3.0 - a_mr * 2.0 / 3.0 * I2 + pv
+    for i in range(6):
+        a = _VI[i]
+        b = _VJ[i]
+        cab = Ci[a, b]
+        gab = -2.0 / 3.0 * a_mr * (-C[a, b]) if a != b else -a_nh / 3.0 - 2.0 / 3.0 * a_mr * (I1 - C[a, b])
+        for j in range(i, 6):
+            c = _VI[j]
+            d = _VJ[j]
+            ccd = Ci[c, d]
+            gcd = -2.0 / 3.0 * a_mr * (-C[c, d]) if c != d else -a_nh / 3.0 - 2.0 / 3.0 * a_mr * (I1 - C[c, d])
+            dci = -0.5 * (Ci[a, c] * Ci[b, d] + Ci[a, d] * Ci[b, c])
+            iso = 0.0
+            if i < 3 and j < 3:
+                iso = 1.0 - (1.0 if i == j else 0.0)  # delta_ab delta_cd - II_abcd on the normal block
+            elif i == j:
+                iso = -0.5  # II_abab for a != b
+            val = 2.0 * (alpha * cab * ccd + beta * dci + gab * ccd + cab * gcd + a_mr * iso)
+            D[i, j] = val * (1.0 if j < 3 else 2.0)
+            if j != i:
+                D[j, i] = val * (1.0 if i < 3 else 2.0)
+    return J
+
+
+@kernel
+def matrix_energy(e, mu, kappa, phi_m, bulk, C, Ci):
+    """Strain energy W (kPa) of matrix + penalty at Voigt strain ``e`` (NaN if J <= 0); see the module docstring."""
+    det = right_cauchy_green(e, C, Ci)
+    if not (det > 0.0):
+        return np.nan
+    J = np.sqrt(det)
+    I1, I2 = _invariants(C)
+    jm23 = 1.0 / np.cbrt(det)
+    return 0.5 * phi_m * (mu * (jm23 * I1 - 3.0) + kappa * (jm23 * jm23 * I2 - 3.0)) + 0.5 * bulk * (J - 1.0) ** 2
+
+
+@kernel
+def kelvin_step_constants(gamma, beta, dt, ea, eh, c):
+    """Fill per-fibre ``ea = exp(-beta dt)``, ``eh = exp(-beta dt / 2)``, ``c = 1 - gamma eh`` (eq. (5))."""
+    for k in range(gamma.shape[0]):
+        eh[k] = np.exp(-0.5 * beta[k] * dt)
+        ea[k] = eh[k] * eh[k]
+        c[k] = 1.0 - gamma[k] * eh[k]
+
+
+@kernel
+def fibre_stress_tangent(e, M, phi, ginf, eps0, c, q, S, D, tau, want_tangent):
+    """Add the fibre stress to ``S`` (6,) and, if ``want_tangent``, its tangent to ``D`` (6, 6).
+
+    ``q_k = gamma_k (ea_k h_k^n - eh_k tau_k^n)`` is the history term of eq. (5), fixed within a step. The trial
+    tensions (eq. (6) applied) are written to ``tau`` (n_f,).
+    """
+    for k in range(M.shape[0]):
+        eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
+        eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
+        trial = (ginf[k] * (eps - eps0[k]) + q[k]) / c[k]
+        if trial > 0.0:
+            tau[k] = trial
+            for i in range(6):
+                S[i] += phi[k] * trial * M[k, i]
+            if want_tangent:
+                g = phi[k] * ginf[k] / c[k]
+                for i in range(6):
+                    for j in range(6):
+                        D[i, j] += g * M[k, i] * M[k, j] * (1.0 if j < 3 else 2.0)
+        else:
+            tau[k] = 0.0
+
+
+@kernel
+def fibre_tension(e, M, ginf, eps0, c, q, tau):
+    """Eqs. (5)-(6) only: the tensions ``tau`` (n_f,) at Voigt strain ``e`` (no stress, no tangent)."""
+    for k in range(M.shape[0]):
+        eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
+        eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
+        tau[k] = max(0.0, (ginf[k] * (eps - eps0[k]) + q[k]) / c[k])
+
+
+@kernel
+def fibre_energy(e, M, phi, ginf, eps0, c, q):
+    r"""Incremental fibre potential :math:`\sum_k \phi_k w_k` whose strain derivative is the tension of eq. (6).
+
+    Within a step :math:`\tilde\tau` is affine in :math:`\varepsilon` with slope :math:`g_\infty / c`, so
+    :math:`w = \frac{c}{2 g_\infty} \max(0, \tilde\tau)^2` (or :math:`\max(0, q/c)\,\varepsilon` if
+    :math:`g_\infty = 0`) has :math:`dw/d\varepsilon = \max(0, \tilde\tau)`.
+    """
+    w = 0.0
+    for k in range(M.shape[0]):
+        eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
+        eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
+        trial = (ginf[k] * (eps - eps0[k]) + q[k]) / c[k]
+        if ginf[k] > 0.0:
+            w += phi[k] * 0.5 * c[k] / ginf[k] * max(0.0, trial) ** 2
+        else:
+            w += phi[k] * max(0.0, trial) * eps
+    return w
+
+
+@kernel
+def kelvin_history_update(tau_new, tau_old, h, ea, eh):
+    """Eq. (7): ``h <- ea h + eh (tau_new - tau_old)`` in place."""
+    for k in range(h.shape[0]):
+        h[k] = ea[k] * h[k] + eh[k] * (tau_new[k] - tau_old[k])
 
 
 @kernel
@@ -119,7 +227,7 @@ def _solve6(A, b, x):
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def solve_uniaxial_batch(
+def legacy_solve_uniaxial_batch(
     params,
     M,
     phi_f,

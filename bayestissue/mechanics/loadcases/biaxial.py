@@ -1,0 +1,81 @@
+r"""Planar biaxial tension in the x-y plane (equibiaxial, general ratio) and pure shear, the thickness face free.
+
+Stretch control: :math:`\lambda_1(t)` the protocol's stretch, :math:`\lambda_2 = 1 + \rho(\lambda_1 - 1)` with the
+ratio :math:`\rho` (1: equibiaxial; 0: pure shear, planar tension, :math:`\lambda_2 = 1`); :math:`P_{33} = 0` and
+the shears stress-free. Force control: dead loads :math:`P_1(t)` and :math:`P_2 = \rho P_1`. Observed: the nominal
+stress or force on each loaded face (stretch control) or each face's displacement (force control); pure shear
+observes face 1 only.
+
+Incompressible closed forms (docs/verification.md), isotropic :math:`W(I_1, I_2)`: equibiaxial
+:math:`P = 2(\lambda - \lambda^{-5})(W_1 + \lambda^2 W_2)`; pure shear :math:`P_1 = 2(\lambda - \lambda^{-3})(W_1 +
+W_2)`; Ogden equibiaxial :math:`P = \sum_p \tfrac{2\mu_p}{\alpha_p}(\lambda^{\alpha_p - 1} - \lambda^{-2\alpha_p - 1})`,
+pure shear :math:`P_1 = \sum_p \tfrac{2\mu_p}{\alpha_p}(\lambda^{\alpha_p - 1} - \lambda^{-\alpha_p - 1})`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bayestissue._validation import check_finite
+from bayestissue.mechanics.loadcases.base import FREE, LOAD, STRETCH, Channel, LoadCase, stress_or_force
+
+__all__ = ["Biaxial", "Equibiaxial", "PureShear"]
+
+
+class Biaxial(LoadCase):
+    """Planar biaxial tension with face 2 following face 1 at the ratio ``ratio`` (module docstring)."""
+
+    name = "biaxial"
+    controls = ("force", "stretch")
+    title = "planar biaxial (x and y), ratio = (lambda_2 - 1)/(lambda_1 - 1) or P_2/P_1; P_33 = 0"
+    options = {"ratio": 1.0}
+    observe_second = True
+
+    def __init__(self, **options):
+        super().__init__(**options)
+        self.settings["ratio"] = check_finite("protocol ratio", self.settings["ratio"])
+
+    def prescribe(self, history, controls):
+        self.check_controls(controls)
+        rho = self.settings["ratio"]
+        kind = LOAD if controls == "force" else STRETCH
+        kinds = np.array([kind, kind, FREE, FREE, FREE, FREE], dtype=np.int64)
+        values = np.zeros((history.size, 6))
+        values[:, 0] = history
+        values[:, 1] = rho * history if controls == "force" else 1.0 + rho * (history - 1.0)
+        return kinds, values
+
+    def channels(self, controls, columns, specimen_mm):
+        lx, ly, lz = specimen_mm
+        if controls == "force":
+            out = [Channel(0, 0, "displacement", "mm", "displacement_mm"),
+                   Channel(0, 1, "displacement of face 2", "mm", "displacement_2_mm")]  # fmt: skip
+        else:
+            out = [stress_or_force(0, "", columns, ly * lz), stress_or_force(1, "_2", columns, lx * lz)]
+        return tuple(out if self.observe_second else out[:1])
+
+
+class Equibiaxial(Biaxial):
+    """Equibiaxial tension: :math:`\\lambda_1 = \\lambda_2` (or :math:`P_1 = P_2`)."""
+
+    name = "equibiaxial"
+    title = "equibiaxial tension (lambda_1 = lambda_2, or P_1 = P_2); P_33 = 0"
+    options = {}
+
+    def __init__(self):
+        super().__init__()
+        self.settings["ratio"] = 1.0
+
+
+class PureShear(Biaxial):
+    """Pure shear (planar tension): :math:`\\lambda_2 = 1`, face 1 observed."""
+
+    name = "pure_shear"
+    controls = ("stretch",)
+    title = "pure shear (planar tension): lambda_2 = 1, P_33 = 0; face 1 observed"
+    options = {}
+    observe_second = False
+
+    def __init__(self):
+        super().__init__()
+        self.settings["ratio"] = 0.0
