@@ -15,7 +15,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import root
 
-__all__ = ["reference_stress", "reference_simulate", "reference_simulate_experiment", "reference_complex_step"]
+__all__ = [
+    "reference_complex_step",
+    "reference_laws_simulate",
+    "reference_simulate",
+    "reference_simulate_experiment",
+    "reference_stress",
+]
 
 
 def reference_stress(E, mu, kappa, phi_m, bulk, directions, phi_f, tension_trial):
@@ -214,3 +220,145 @@ def reference_complex_step(experiment, params, j: int, *, h: float = 1e-30, max_
         else:
             du[n] = ((np.sqrt(1.0 + 2.0 * x[0]) - 1.0) * length_x).imag / h
     return du
+
+
+def _derivative(f, x, h=1e-30):
+    """:math:`f'(x)` by complex step (exact to round-off)."""
+    return f(x + 1j * h).imag / h
+
+
+def _iso_stress(law, p_law, phi_m, E):
+    """Voigt isochoric stress :math:`\\phi_m \\partial W/\\partial E` of ``law`` (complex step of its energy)."""
+    out = np.empty(6)
+    for j, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))):
+        dE = np.zeros((3, 3))
+        dE[a, b] = dE[b, a] = 1.0
+        out[j] = _derivative(lambda t, dE=dE: phi_m * law.energy_reference(np.eye(3) + 2.0 * (E + t * dE), p_law),
+                             0.0) / (1.0 if a == b else 2.0)  # fmt: skip
+    return out
+
+
+def _branches(p, start, n):
+    """(r, gamma, beta) of ``n`` Prony branches whose parameters start at ``start``."""
+    out, i = [], start
+    for b in range(n):
+        r = 1.0 if b == 0 else p[i]
+        i += 0 if b == 0 else 1
+        out.append((r, p[i], p[i + 1]))
+        i += 2
+    return out
+
+
+def reference_laws_simulate(experiment, params, *, tol=1e-11) -> np.ndarray:
+    """Integrate ``experiment`` step by step, independently of the compiled kernels, for any of its tissue's laws
+    and load case: the stresses by complex-step derivatives of each law's NumPy energy
+    (:meth:`~bayestissue.mechanics.laws.base.MatrixLaw.energy_reference`), the Prony branches of
+    :mod:`~bayestissue.mechanics.laws.prony` written out in NumPy, the free strain components by
+    :func:`scipy.optimize.root`. Returns the observed channels ``(n_steps + 1, n_ch)`` on the simulation grid (kPa or
+    mm, before a channel's area factor); NaN from a step that fails. Slow: tests only."""
+    t = experiment.tissue
+    p = np.asarray(params, dtype=float)
+    kinds, values = experiment.load_case.prescribe(experiment.prescribed(), experiment.controls)
+    chans = experiment.channels
+    dt, lengths = experiment.dt_s, np.asarray(experiment.specimen_mm, float)
+    n_m = t.matrix.n_parameters
+    mb = _branches(p, n_m, t.matrix_branches)
+    nb_par = 0 if t.matrix_branches == 0 else 2 + 3 * (t.matrix_branches - 1)
+    f0 = n_m + nb_par
+    n_fp = t.fibre.n_parameters
+    stride = n_fp + (0 if t.fibre_branches == 0 else 2 + 3 * (t.fibre_branches - 1))
+    fams = []
+    for k in range(t.n_fibres):
+        fp = p[f0 + k * stride : f0 + k * stride + n_fp]
+        kap = fp[2] if t.fibre.name == "hgo" else 0.0
+        v = t.directions[k]
+        H = kap * np.eye(3) + (1.0 - 3.0 * kap) * np.outer(v, v)
+        fams.append((fp, H, _branches(p, f0 + k * stride + n_fp, t.fibre_branches)))
+
+    def consts(br):
+        """Per branch: r, gamma, a = exp(-beta dt), b = exp(-beta dt / 2), c = 1 - gamma b (eq. (5))."""
+        r, g, be = (np.array([x[i] for x in br], dtype=float) for i in range(3))
+        return r, g, np.exp(-be * dt), np.exp(-0.5 * be * dt), 1.0 - g * np.exp(-0.5 * be * dt)
+
+    mc = consts(mb)
+    fc = [consts(br) for _, _, br in fams]
+    nbm, nbf = t.matrix_branches, t.fibre_branches
+    hm = np.zeros((nbm, 3, 3))
+    tm_old = np.zeros((nbm, 3, 3))
+    hf = np.zeros((t.n_fibres, max(nbf, 1)))
+    tf_old = np.zeros_like(hf)
+    for k, (fp, _, _) in enumerate(fams):  # eq. (8): tau^0 = max(0, r sigma(-eps0))
+        s0 = _derivative(lambda x, fp=fp: t.fibre.energy_reference(x, fp), -t.eps0[k])
+        tf_old[k, :] = np.maximum(0.0, (fc[k][0] if nbf else np.ones(1)) * s0)
+
+    def stress(x, qm, qf):
+        E = _symmetric(x)
+        C = np.eye(3) + 2.0 * E
+        J = np.sqrt(np.linalg.det(C))
+        S_iso = _symmetric(_iso_stress(t.matrix, p[:n_m], t.phi_matrix, E)[[0, 3, 4, 1, 5, 2]])
+        tm = [(mc[0][b] * S_iso + qm[b]) / mc[4][b] for b in range(nbm)]
+        S = sum(tm) if nbm else S_iso.copy()
+        S = S + t.bulk_kpa * (J - 1.0) * J * np.linalg.inv(C)
+        taus = np.zeros_like(hf)
+        for k, (fp, H, _) in enumerate(fams):
+            sig = _derivative(lambda y, fp=fp: t.fibre.energy_reference(y, fp), np.sum(H * E) - t.eps0[k])
+            if nbf == 0:
+                taus[k, 0] = max(0.0, sig)
+            else:
+                taus[k] = np.maximum(0.0, (fc[k][0] * sig + qf[k]) / fc[k][4])
+            S = S + t.phi_fibres[k] * taus[k].sum() * H
+        return S, tm, taus
+
+    voigt = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+    up = [0, 3, 4, 1, 5, 2]  # Voigt -> the upper triangle's row order of _symmetric
+    out = np.full((values.shape[0], len(chans)), np.nan)
+    out[0] = 0.0
+    x = np.zeros(6)  # upper triangle order
+    free = [i for i in range(6) if kinds[i] < 2]
+    cols = [up[i] for i in free]
+    for n in range(1, values.shape[0]):
+        qm = [mc[1][b] * (mc[2][b] * hm[b] - mc[3][b] * tm_old[b]) for b in range(nbm)]
+        qf = np.zeros_like(hf)
+        for k in range(t.n_fibres):
+            if nbf:
+                qf[k] = fc[k][1] * (fc[k][2] * hf[k] - fc[k][3] * tf_old[k])
+        for i in range(6):
+            if kinds[i] == 2:
+                x[up[i]] = 0.5 * (values[n, i] ** 2 - 1.0)
+            elif kinds[i] == 3:
+                x[up[i]] = values[n, i]
+
+        def residual(xf, n=n, qm=qm, qf=qf):
+            xx = x.copy()
+            xx[cols] = xf
+            S, _, _ = stress(xx, qm, qf)
+            r = np.array([S[a, b] for a, b in voigt])
+            for i in range(3):
+                if kinds[i] == 1:
+                    r[i] -= values[n, i] / np.sqrt(1.0 + 2.0 * xx[up[i]])
+            return r[free]
+
+        if free:
+            sol = _solve_checked(residual, x[cols], tol, max(1.0, np.abs(values[n]).max()))
+            if sol is None:
+                break
+            x[cols] = sol.x
+        S, tm, taus = stress(x, qm, qf)
+        for b in range(nbm):
+            hm[b] = mc[2][b] * hm[b] + mc[3][b] * (tm[b] - tm_old[b])
+            tm_old[b] = tm[b]
+        for k in range(t.n_fibres):
+            if nbf:
+                hf[k] = fc[k][2] * hf[k] + fc[k][3] * (taus[k] - tf_old[k])
+            tf_old[k] = taus[k]
+        E = _symmetric(x)
+        for ch, c in enumerate(chans):
+            i = c.axis
+            lam = values[n, i] if kinds[i] == 2 else np.sqrt(1.0 + 2.0 * E[i, i])
+            if c.kind == 0:
+                out[n, ch] = (lam - 1.0) * lengths[i]
+            elif c.kind == 1:
+                out[n, ch] = lam * S[i, i]
+            else:
+                out[n, ch] = S[0, 1] + 2.0 * E[0, 1] * S[1, 1]
+    return out

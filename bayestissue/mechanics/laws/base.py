@@ -102,7 +102,10 @@ class Law:
     def __init__(self, **options):
         unknown = sorted(set(options) - set(self.options))
         if unknown:
-            raise ValidationError(f"tissue {self.name} option", unknown[0], f"one of {sorted(self.options)}")
+            raise ValidationError(
+                f"tissue {unknown[0]}", options[unknown[0]], f"no such option for the {self.name} law",
+                f"its options: {', '.join(sorted(self.options)) or 'none'}",
+            )  # fmt: skip
         self.settings = {**self.options, **options}
 
     def parameters(self) -> tuple[LawParameter, ...]:

@@ -30,14 +30,17 @@ class Biaxial(LoadCase):
     title = "planar biaxial (x and y), ratio = (lambda_2 - 1)/(lambda_1 - 1) or P_2/P_1; P_33 = 0"
     options = {"ratio": 1.0}
     observe_second = True
+    #: the ratio of a subclass that fixes it (None: the option's)
+    fixed_ratio = None
 
     def __init__(self, **options):
         super().__init__(**options)
-        self.settings["ratio"] = check_finite("protocol ratio", self.settings["ratio"])
+        ratio = self.settings.get("ratio", 1.0) if self.fixed_ratio is None else self.fixed_ratio
+        self.ratio = check_finite("protocol ratio", ratio)
 
     def prescribe(self, history, controls):
         self.check_controls(controls)
-        rho = self.settings["ratio"]
+        rho = self.ratio
         kind = LOAD if controls == "force" else STRETCH
         kinds = np.array([kind, kind, FREE, FREE, FREE, FREE], dtype=np.int64)
         values = np.zeros((history.size, 6))
@@ -61,10 +64,7 @@ class Equibiaxial(Biaxial):
     name = "equibiaxial"
     title = "equibiaxial tension (lambda_1 = lambda_2, or P_1 = P_2); P_33 = 0"
     options = {}
-
-    def __init__(self):
-        super().__init__()
-        self.settings["ratio"] = 1.0
+    fixed_ratio = 1.0
 
 
 class PureShear(Biaxial):
@@ -75,7 +75,4 @@ class PureShear(Biaxial):
     title = "pure shear (planar tension): lambda_2 = 1, P_33 = 0; face 1 observed"
     options = {}
     observe_second = False
-
-    def __init__(self):
-        super().__init__()
-        self.settings["ratio"] = 0.0
+    fixed_ratio = 0.0
