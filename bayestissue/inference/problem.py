@@ -112,10 +112,8 @@ class CalibrationProblem:
         Material parameters (the forward models' inputs), sampled and fixed.
     exchangeable : two parameter groups whose exchange leaves the likelihood unchanged (see
         :meth:`log_prior`).
-    coordinates : the sampler's coordinate system, ``box``, ``creep`` or ``ramp``
-        (:mod:`bayestissue.inference.coordinates`).
-    geometry : plain numbers the ``creep`` coordinates need (``stretch``, ``phi_matrix``, ``fibres``), given by
-        the caller that knows the forward model (:func:`bayestissue.workflows.problem.creep_geometry`).
+    coordinates : the sampler's coordinate system: ``"box"`` or a factory ``f(problem) -> coordinates``
+        (:mod:`bayestissue.inference.coordinates`; the physics-aware ones: :mod:`bayestissue.workflows.coordinates`).
 
     Attributes
     ----------
@@ -132,8 +130,7 @@ class CalibrationProblem:
         material: ParameterSet,
         *,
         exchangeable: Sequence[Sequence[str]] | None = None,
-        coordinates: str = "box",
-        geometry: dict | None = None,
+        coordinates="box",
     ):
         experiments = tuple(experiments)
         if not experiments or not all(isinstance(e, ExperimentTerm) for e in experiments):
@@ -168,7 +165,6 @@ class CalibrationProblem:
             self.exchangeable = tuple(np.array([names.index(n) for n in g]) for g in groups)
         self.n_evaluations = 0
         self.n_failed = 0
-        self.geometry = geometry
         #: the sampler's coordinate system (:mod:`bayestissue.inference.coordinates`)
         self.coordinates = make_coordinates(coordinates, self)
 

@@ -51,10 +51,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bayestissue._validation import ValidationError
-from bayestissue.inference.coordinates import COORDINATES
 from bayestissue.inference.likelihood import NOISE_MODELS, make_noise
 from bayestissue.inference.sampling import NestedOptions, SamplerOptions
 from bayestissue.io.results import read_config
+from bayestissue.workflows.coordinates import COORDINATES
 from bayestissue.workflows.schema import ENGINES, check_mapping
 
 __all__ = ["CalibrationConfig", "config_from_mapping", "load_config"]

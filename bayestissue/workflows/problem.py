@@ -21,6 +21,7 @@ from bayestissue.mechanics import PAPER_TISSUE, ForwardModel, TissueConfig, pars
 from bayestissue.mechanics.presets import preset
 from bayestissue.paper import PAPER_PARAMETERS
 from bayestissue.workflows.config import CalibrationConfig
+from bayestissue.workflows.coordinates import coordinate_factory
 from bayestissue.workflows.forward import SpecimenForward, noise_sd, specimen_kinds, specimen_spec
 
 __all__ = [
@@ -224,7 +225,11 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
                 sensitivities=forward.sensitivities if isinstance(forward, ForwardModel) else None,
             )
         )
+    if config.coordinates != "box" and not all(e.tissue.is_paper_model for e in experiments):
+        raise ValidationError("sampler coordinates", config.coordinates,
+                              "'box' for laws other than the paper's (the creep and ramp coordinates are those of its "
+                              "Mooney-Rivlin matrix and Kelvin fibre)")  # fmt: skip
     geometry = creep_geometry(experiments, material.tied) if config.coordinates == "creep" else None
     return CalibrationProblem(
-        terms, material, exchangeable=config.exchangeable, coordinates=config.coordinates, geometry=geometry
+        terms, material, exchangeable=config.exchangeable, coordinates=coordinate_factory(config.coordinates, geometry)
     )

@@ -13,9 +13,9 @@ from collections.abc import Mapping
 
 from bayestissue._schema import Key, check_table, reference_rows
 from bayestissue._validation import ValidationError, check_known_keys
-from bayestissue.inference.coordinates import COORDINATES
 from bayestissue.inference.likelihood import NOISE_MODELS
 from bayestissue.inference.sampling.options import MOVES, PROPOSALS
+from bayestissue.workflows.coordinates import COORDINATES
 
 #: The sampling engines (``[sampler] engine``).
 ENGINES = ("emcee", "nested")

@@ -62,7 +62,7 @@ class CalibrationTask:
     tied : pairs ``(name, target)``: ``name`` takes ``target``'s value (e.g. :data:`bayestissue.paper.MIRROR_TIES`); the
         draws are still reported for all 11 parameters.
     coordinates, moves, adapt_rounds, adapt_steps : the sampler's coordinate system
-        (:data:`bayestissue.inference.coordinates.COORDINATES`; sheared ones are adapted to the best
+        (:data:`bayestissue.workflows.coordinates.COORDINATES`; sheared ones are adapted to the best
         optimum as in the calibration stage) and moves (:class:`~bayestissue.inference.SamplerOptions`).
         Defaults: box coordinates with DE/snooker moves, a fixed-length chain of ``n_steps``.
     """

@@ -1,4 +1,4 @@
-"""Sampler coordinates: the creep-curve reparametrisation (inference.coordinates) is exact, and the ramp
+"""Sampler coordinates: the creep-curve reparametrisation (workflows.coordinates) is exact, and the ramp
 coordinates' shear straightens the T2 valley without touching the Jacobian.
 
 Its log-Jacobian is checked against finite differences of the full inverse map and, through the
@@ -14,9 +14,10 @@ from inference_helpers import prior_only_problem
 from scipy import stats
 
 from bayestissue.inference import SamplerOptions, initial_walkers, run_ensemble
-from bayestissue.inference.coordinates import CreepCoordinates, make_coordinates
+from bayestissue.inference.coordinates import make_coordinates
 from bayestissue.mechanics import PAPER_TISSUE
 from bayestissue.workflows import paper_parameter_set
+from bayestissue.workflows.coordinates import CreepCoordinates, coordinate_factory
 from bayestissue.workflows.problem import reference_stretch
 
 TIED = {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}
@@ -103,12 +104,16 @@ def test_creep_coordinates_need_the_law_sampled_and_mechanics():
     with pytest.raises(
         ValueError, match="sampler coordinates: expected 'box' or 'ramp' for a problem without geometry"
     ):
-        make_coordinates("creep", problem)
+        coordinate_factory("creep")
     with pytest.raises(ValueError, match="sampler coordinates: expected one of"):
-        make_coordinates("polar", problem)
-    assert make_coordinates("box", problem) is problem.parameters
+        coordinate_factory("polar")
+    with pytest.raises(ValueError, match="sampler coordinates: expected 'box' or a coordinate factory"):
+        make_coordinates("creep", problem)
+    assert make_coordinates(coordinate_factory("box"), problem) is problem.parameters
     with pytest.raises(ValueError, match="ramp coordinates: expected mu, kappa and the fibre law"):
-        make_coordinates("ramp", prior_only_problem(paper_parameter_set().updated(fixed=["mu"]).specs))
+        make_coordinates(
+            coordinate_factory("ramp"), prior_only_problem(paper_parameter_set().updated(fixed=["mu"]).specs)
+        )
 
 
 def test_config_builds_a_tied_problem_in_creep_coordinates():
@@ -190,9 +195,10 @@ def test_ramp_shear_straightens_the_t2_valley_with_a_unit_jacobian():
     from scipy.optimize import least_squares
 
     from bayestissue.inference import fit_least_squares
-    from bayestissue.inference.coordinates import RampCoordinates, ShearedCoordinates, adapt_coordinates
+    from bayestissue.inference.coordinates import ShearedCoordinates, adapt_coordinates
     from bayestissue.mechanics import load_experiment
     from bayestissue.workflows import build_problem, config_from_mapping
+    from bayestissue.workflows.coordinates import RampCoordinates
 
     exp = load_experiment(Path(__file__).resolve().parents[2] / "data" / "T2.toml")
     cfg = config_from_mapping({"parameters": {"tied": TIED}, "sampler": {"coordinates": "ramp"}})
