@@ -208,23 +208,28 @@ def build_problem(experiments: Sequence, config: CalibrationConfig | None = None
     material = _material(experiments, config)
     terms = []
     for e in experiments:
-        quantity, unit, observed = e.observable
-        if observed is None:
-            column = {"displacement": "displacement_mm", "force": "force_mN or nominal_stress_kpa"}[quantity]
-            raise ValidationError(f"experiment {e.name}", f"no {column} column", f"{quantity} data to fit")
+        channels = [(c, ch) for c, ch in enumerate(e.channels) if e.data_of(ch) is not None]
+        if not channels:
+            first = e.channels[0]
+            raise ValidationError(f"experiment {e.name}", f"no {first.column} column", f"{first.quantity} data to fit")
         forward = _forward(e, config)
-        terms.append(
-            ExperimentTerm(
-                e.name,
-                e.time_s,
-                observed,
-                forward,
-                _noise(e, config),
-                {"synthetic": bool(e.synthetic), "source": str(e.source or ""), "observable": f"{quantity} ({unit})"},
-                unit=unit,
-                sensitivities=forward.sensitivities if isinstance(forward, ForwardModel) else None,
+        if len(e.channels) > 1 and not isinstance(forward, ForwardModel):
+            raise ValidationError(f"experiment {e.name}", f"{len(e.channels)} observed channels",
+                                  "one channel with a specimen-level parameter")  # fmt: skip
+        for c, ch in channels:  # one term per observed channel: each its own noise model
+            fwd = forward if len(e.channels) == 1 else forward.channel(c)
+            terms.append(
+                ExperimentTerm(
+                    e.name if c == 0 else f"{e.name}_{c + 1}",
+                    e.time_s,
+                    e.data_of(ch),
+                    fwd,
+                    _noise(e, config),
+                    {"synthetic": bool(e.synthetic), "source": str(e.source or ""), "observable": ch.label},
+                    unit=ch.unit,
+                    sensitivities=fwd.sensitivities if isinstance(forward, ForwardModel) else None,
+                )
             )
-        )
     if config.coordinates != "box" and not all(e.tissue.is_paper_model for e in experiments):
         raise ValidationError("sampler coordinates", config.coordinates,
                               "'box' for laws other than the paper's (the creep and ramp coordinates are those of its "
