@@ -22,7 +22,8 @@ __all__ = ["Key", "check_table", "expected", "reference_rows", "valid"]
 @dataclass(frozen=True)
 class Key:
     """One key: ``kind`` (see :func:`valid`), default (as text), meaning; ``low`` an inclusive lower bound of a
-    number (``low_open`` makes it exclusive); ``choices`` the allowed strings."""
+    number (``low_open`` makes it exclusive), ``high`` an inclusive upper one (sizes that would exhaust memory or
+    never finish); ``choices`` the allowed strings."""
 
     kind: str
     default: str
@@ -30,6 +31,7 @@ class Key:
     low: float | None = None
     low_open: bool = False
     choices: tuple = ()
+    high: float | None = None
 
 
 def _is_number(v) -> bool:
@@ -53,12 +55,14 @@ def _is_table(v, value_ok) -> bool:
 
 
 def _in_range(v, key: Key) -> bool:
-    return key.low is None or (v > key.low if key.low_open else v >= key.low)
+    above = key.low is None or (v > key.low if key.low_open else v >= key.low)
+    return above and (key.high is None or v <= key.high)
 
 
 def expected(key: Key) -> str:
     """What ``key`` expects, as the error message and the reference say it."""
     bound = "" if key.low is None else f" {'>' if key.low_open else '>='} {key.low:g}"
+    bound += "" if key.high is None else f"{' and' if bound else ''} <= {key.high:g}"
     return {
         "int": f"an integer{bound}",
         "float": f"a number{bound}",

@@ -96,12 +96,11 @@ def main(argv=None) -> int:
     fixed = ForwardModel(exp).kernel_inputs  # computed before the timing: the floor is the kernel alone
     n_t = exp.n_steps + 1
     p2 = np.ascontiguousarray(p)
-    no_sens = np.empty((1, 1, 1, 1))
 
     def kernel():
         u, ok = np.empty((args.sets, n_t, 1)), np.empty(args.sets, dtype=np.bool_)
         s, tau, it = np.empty((1, 1, 6)), np.empty((1, 1, t.n_fibres)), np.zeros(args.sets, dtype=np.int64)
-        solve_batch(p2, *fixed, u, ok, s, tau, False, it, False, no_sens)
+        solve_batch(p2, *fixed, u, ok, s, tau, False, it, None)
 
     timings = {"kernel": kernel, "simulate": lambda: simulate(exp, p)}
     try:

@@ -1,5 +1,5 @@
 """The forward kernel as it was before the laws became plug-ins (commit cb83b05), frozen as the speed and bitwise
-baseline of benchmarks/bench_forward.py and tests/mechanics/test_plugin_equivalence.py: the paper's Mooney-Rivlin
+baseline of benchmarks/bench_forward.py and tests/mechanics/test_viscoelastic.py: the paper's Mooney-Rivlin
 matrix and Kelvin fibres in one uniaxial time loop. Not used by the package."""
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
-"""Real measured data (issue 20): the Mooney-Rivlin matrix calibrated on Treloar's rubber and Budday's brain tissue.
+"""Real measured data (issue 20): the Mooney-Rivlin matrix calibrated on Treloar's rubber in uniaxial tension.
 
-For each case of :data:`bayestissue.analyses.measured.CASES` (Treloar over stretch <= 3 and over its whole range,
-each brain region over its range): least squares and the emcee posterior of mu, kappa and the noise sd (the
+For each case of :data:`bayestissue.analyses.measured.CASES` (Treloar over stretch <= 3 and over its whole range):
+least squares and the emcee posterior of mu, kappa and the noise sd (the
 calibration pipeline, matrix-only experiments of data/measured/ under stretch control), the closed-form
 incompressible Mooney-Rivlin least-squares fit beside it, and a figure of the data with the posterior predictive
 band. Writes into --out:
@@ -11,8 +11,7 @@ band. Writes into --out:
 * ``measured_summary.md`` and ``measured_record.json``: per case the range, the fits, the posterior medians and 90 %
   intervals, the noise sd and the convergence verdict (the record feeds REPORT.md's section on real data).
 
-The brain cases run the nested engine: at small stretch only mu + kappa is informed and their posteriors are an L
-in (log mu, log kappa) reaching both box edges, which emcee did not mix (below).
+Other laws, other modes and brain tissue: studies/law_choice.py.
 
     python studies/measured_data.py [--quick] [--out DIR]
 """
@@ -39,12 +38,9 @@ from bayestissue.workflows import config_from_mapping, run_calibration  # noqa: 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 20261125
 #: emcee settings: 3 parameters (mu, kappa, sd), 4 ndim walkers, automatic length, half of the moves independence
-#: proposals from a Student-t mixture fitted during adaptation. At small stretch only mu + kappa is informed, so
-#: the brain posteriors are an L in (log mu, log kappa), as T1's: with the default stretch moves both brain cases
-#: were NOT CONVERGED at 6000 steps (tau 144-502 steps, R-hat up to 1.53), with mixture moves at 12 000 steps too
-#: (tau up to 761, R-hat 1.04 and 1.51); the nested engine (4 runs, 1000 live points) CONVERGED on both (80 s and
-#: 127 s on this machine, log Z range 0.02-0.04), so the brain cases use it, with one network per bound instead of
-#: nautilus's four: CONVERGED as well in 41 s and 63 s (log Z range 0.06 and 0.05, scatter p 0.18 and 0.56).
+#: proposals from a Student-t mixture fitted during adaptation. (Brain tissue at stretch <= 1.1, formerly here, informs
+#: only mu + kappa: an L in (log mu, log kappa) that emcee did not mix at 12 000 steps, R-hat up to 1.51; the laws
+#: stage runs it with the nested engine.)
 SETTINGS = {
     "quick": {"n_starts": 2, "sampler": {"max_steps": 300, "n_ensembles": 2, "moves": "mixture", "adapt_rounds": 1,
                                          "adapt_steps": 100}, "n_predictive": 100},

@@ -34,6 +34,7 @@ STAGES = (
     ("T1 vs T2", "t1_vs_t2.py"),
     ("controls", "controls.py"),
     ("measured data", "measured_data.py"),
+    ("laws", "law_choice.py"),
     ("report", "report.py"),
 )
 

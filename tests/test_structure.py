@@ -39,3 +39,13 @@ def test_every_public_name_is_defined_once():
                     where[name].add(str(path.relative_to(PACKAGE)))
     twice = {name: sorted(paths) for name, paths in where.items() if len(paths) > 1}
     assert twice == {}
+
+
+def test_test_module_basenames_are_unique():
+    """pytest's default (prepend) import mode imports test modules by basename: two ``test_x.py`` in different
+    folders break collection of the whole suite."""
+    tests = Path(__file__).resolve().parent
+    seen = defaultdict(list)
+    for path in tests.rglob("test_*.py"):
+        seen[path.name].append(str(path.relative_to(tests)))
+    assert {name: where for name, where in seen.items() if len(where) > 1} == {}

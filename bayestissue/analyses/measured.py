@@ -1,4 +1,5 @@
-r"""Calibration of the matrix (Mooney-Rivlin) on real, elastic, stretch-controlled data (``data/measured/``).
+r"""Calibration of the matrix (Mooney-Rivlin) on real, elastic, stretch-controlled data (``data/measured/``): Treloar's
+rubber in uniaxial tension, against the closed-form fit.
 
 Each case is a bundled measured curve (nominal stress against stretch, lateral faces free), a stretch range and a
 parameter box for the material's scale; :func:`trimmed` cuts the experiment to the range. The independent check is
@@ -37,18 +38,13 @@ class MeasuredCase:
 
 
 #: Treloar's rubber over stretch <= 3 (where Mooney-Rivlin fits are usually made) and over the whole range (to 7.6,
-#: with the upturn it cannot follow); each brain region over its whole range (to 1.1). Boxes: the presets ``rubber``
-#: ([1, 1e5] kPa) and ``brain`` ([1e-4, 100] kPa), two to three decades either side of the material's known scale.
-#: The brain cases use the nested engine: at 10 % stretch only mu + kappa is informed and the posterior is an L in
-#: (log mu, log kappa) reaching both box ends, which emcee's ensembles did not cross (studies/measured_data.py).
+#: with the upturn it cannot follow); box: the preset ``rubber`` ([1, 1e5] kPa), two to three decades either side of
+#: the material's known scale. Brain tissue (Budday 2017) is calibrated in tension, compression and shear by the laws
+#: stage (:mod:`bayestissue.analyses.law_choice`), its Mooney-Rivlin fit on tension alone among them.
 CASES = (
     MeasuredCase("treloar_to_3", "treloar_1944.toml", 3.0, "rubber (Treloar 1944)"),
     MeasuredCase("treloar_all", "treloar_1944.toml", np.inf, "rubber (Treloar 1944)"),
-    MeasuredCase("brain_basal_ganglia", "budday_2017_basal_ganglia.toml", np.inf, "brain, basal ganglia (Budday 2017)",
-                 "nested"),
-    MeasuredCase("brain_corpus_callosum", "budday_2017_corpus_callosum.toml", np.inf,
-                 "brain, corpus callosum (Budday 2017)", "nested"),
-)  # fmt: skip
+)
 
 
 def trimmed(experiment: Experiment, max_stretch: float) -> Experiment:
@@ -60,7 +56,8 @@ def trimmed(experiment: Experiment, max_stretch: float) -> Experiment:
     protocol = MeasuredStretchProtocol(experiment.protocol.time_s[keep], lam[keep])
     columns = {k: getattr(experiment, k) for k in ("displacement_mm", "force_mN", "stress_kpa")}
     cut = {k: None if v is None else v[keep] for k, v in columns.items()}
-    return replace(experiment, protocol=protocol, time_s=experiment.time_s[keep], **cut)
+    extra = {k: v[keep] for k, v in experiment.columns.items()}  # the data file's other columns (e.g. stretch)
+    return replace(experiment, protocol=protocol, time_s=experiment.time_s[keep], columns=extra, **cut)
 
 
 def incompressible_stress(stretch, mu, kappa) -> np.ndarray:

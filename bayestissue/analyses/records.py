@@ -10,6 +10,7 @@ identifiability     :class:`IdentifiabilityRecord`     least squares, profiles, 
 T1 vs T2            :class:`DiscrepancyRecord`         tension, cross-prediction, rates, specimen models, cut
 controls            :class:`ControlsRecord`            scenarios and every pair's least-squares fits
 measured data       :class:`MeasuredRecord`            the real-data cases: fits, posteriors, verdicts
+laws                :class:`LawChoiceRecord`           each law on each material: transfer, joint evidence
 ==================  =================================  ===========================================================
 
 Records hold measurements, not verdicts: the report applies the rules of :mod:`bayestissue.analyses.verdicts` to
@@ -35,7 +36,10 @@ __all__ = [
     "FitCheck",
     "Fibre1Check",
     "IdentifiabilityRecord",
+    "LawChoiceRecord",
+    "LawFit",
     "LocalAnalysis",
+    "MaterialLaws",
     "MeasuredResult",
     "MeasuredRecord",
     "PairFit",
@@ -421,6 +425,55 @@ class MeasuredRecord:
     cases: list[MeasuredResult]
 
 
+# ------------------------------------------------------------------------------------------------------------ laws
+@dataclass(frozen=True)
+class LawFit:
+    """One law calibrated on some modes of a material (:mod:`bayestissue.analyses.law_choice`). Per-mode entries are
+    keyed by the mode's label, for every mode of the material (fitted or predicted); quantiles are (median, 5 %,
+    95 %); ``peak_log_likelihood`` is at the least-squares optimum with each mode's plug-in noise sd."""
+
+    law: str
+    fitted_on: list[str]
+    names: list[str]
+    posterior: dict[str, tuple[float, float, float]]
+    noise_sd: dict[str, tuple[float, float, float]]
+    log_z: float
+    log_z_err: float
+    peak_log_likelihood: float
+    converged: bool
+    verdict: str
+    band_share: dict[str, float]
+    relative_rms: dict[str, float]
+    n_evaluations: int
+    seconds: float
+
+
+@dataclass(frozen=True)
+class MaterialLaws:
+    """Every law on one material: calibrated on its first mode alone (``transfer``) and on all (``joint``)."""
+
+    name: str
+    title: str
+    modes: list[str]
+    points: dict[str, int]
+    units: dict[str, str]
+    transfer: list[LawFit]
+    joint: list[LawFit]
+    figure: str
+    #: a published one-term Ogden exponent range to compare with (Budday et al. 2017 for brain), or None
+    alpha_published: tuple[float, float] | None
+
+
+@dataclass(frozen=True)
+class LawChoiceRecord:
+    SCHEMA: ClassVar[str] = "bayestissue.laws"
+    VERSION: ClassVar[int] = 1
+
+    mode: str
+    materials: list[MaterialLaws]
+    seconds: float
+
+
 #: Each record's file name in the study's output folder.
 FILES = {
     CalibrationRecord: "calibration_record.json",
@@ -428,4 +481,5 @@ FILES = {
     DiscrepancyRecord: "t1_vs_t2_record.json",
     ControlsRecord: "controls_record.json",
     MeasuredRecord: "measured_record.json",
+    LawChoiceRecord: "laws_record.json",
 }

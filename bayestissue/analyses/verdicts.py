@@ -29,6 +29,11 @@ Rules
   :data:`~bayestissue.identifiability.CHI2_1_95` (one degree of freedom, 95 %).
 * **Can the data tell a tied model from the untied one?** (:func:`ties_rejected`) likelihood-ratio
   :math:`p <` :data:`TIES_P`.
+* **Which law do the data support?** (:func:`evidence_strength`) the log Bayes factor :math:`\ln B` of the better
+  law over another, on the scale of Kass & Raftery (1995, J Am Stat Assoc 90:773, their section 3.2, halved from
+  :math:`2\ln B`): below :data:`BAYES_POSITIVE` *not worth more than a mention*, then *positive*, from
+  :data:`BAYES_STRONG` *strong*, from :data:`BAYES_VERY_STRONG` *very strong*; a factor within
+  :data:`BAYES_ERROR_SIGMAS` of its own Monte Carlo error is *within error*, whatever its size.
 """
 
 from __future__ import annotations
@@ -42,6 +47,10 @@ from bayestissue.identifiability import CHI2_1_95, tension
 from bayestissue.inference.summary import PRIOR_DOMINATED_CONTRACTION
 
 __all__ = [
+    "BAYES_ERROR_SIGMAS",
+    "BAYES_POSITIVE",
+    "BAYES_STRONG",
+    "BAYES_VERY_STRONG",
     "BIMODALITY_FLAG",
     "BOUND_EDGE",
     "BOUND_SHARE",
@@ -62,6 +71,7 @@ __all__ = [
     "confusion",
     "controls_verdict",
     "difference_is_real",
+    "evidence_strength",
     "improvement_matters",
     "informed",
     "likelihood_ratio_p",
@@ -103,6 +113,12 @@ BIMODALITY_FLAG = 0.555
 TIES_P = 0.05
 
 #: The causes of the controlled rules: number -> short name.
+#: Kass & Raftery's grades of a log Bayes factor (their 2 ln B of 2, 6 and 10): odds of e (2.7), e^3 (20), e^5 (150).
+BAYES_POSITIVE = 1.0
+BAYES_STRONG = 3.0
+BAYES_VERY_STRONG = 5.0
+#: ... and a factor smaller than this many of its own standard errors (the runs' scatter) is not a preference.
+BAYES_ERROR_SIGMAS = 2.0
 CAUSES = {1: "fibre law", 2: "fibre angle", 3: "specimen stiffness"}
 #: The cause models the controls fit, by key: the causes each one includes.
 CAUSE_MODELS = {"1": (1,), "2": (2,), "3": (3,), "1+2": (1, 2), "1+3": (1, 3), "2+3": (2, 3)}
@@ -284,3 +300,16 @@ def confusion(rows) -> dict:
         ok = (not v.different) if not planted else (v.different and planted <= set(v.named))
         row["named"] += int(ok)
     return table
+
+
+def evidence_strength(log_bayes: float, error: float) -> str:
+    """The grade of a log Bayes factor ``log_bayes`` >= 0 with standard error ``error`` (module docstring)."""
+    if not np.isfinite(log_bayes) or not log_bayes > BAYES_ERROR_SIGMAS * error:
+        return "within error"
+    if log_bayes >= BAYES_VERY_STRONG:
+        return "very strong"
+    if log_bayes >= BAYES_STRONG:
+        return "strong"
+    if log_bayes >= BAYES_POSITIVE:
+        return "positive"
+    return "not worth more than a mention"

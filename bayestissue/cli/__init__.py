@@ -80,6 +80,12 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into e.g. `head`
         sys.stderr.close()
         return 0
+    except KeyboardInterrupt:  # Ctrl-C: one line, and how to go on where a run checkpoints
+        out = getattr(args, "out", None)
+        hint = (f"; what was checkpointed in {out} is kept: the same command with --resume continues it"
+                if hasattr(args, "resume") and out else "")  # fmt: skip
+        print(f"bayestissue {args.command}: interrupted{hint}", file=sys.stderr)
+        return 130
     except (ValueError, FileNotFoundError, KeyError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"bayestissue {args.command}: error: {msg}", file=sys.stderr)

@@ -14,9 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from bayestissue.cli import plain
+from bayestissue.io.export_prepare import DROP
 from bayestissue.mechanics.presets import PRESETS
 
 __all__ = ["register", "run"]
+
+#: The default simulation step after resampling is at least the duration over this many steps.
+MAX_DEFAULT_STEPS = 5000
 
 
 def register(subparsers) -> None:
@@ -47,11 +51,21 @@ def register(subparsers) -> None:
     p.add_argument("--width-mm", type=float, help="width (with --thickness-mm; overrides the export's)")
     p.add_argument("--thickness-mm", type=float, help="thickness (with --width-mm)")
     p.add_argument("--until-s", type=float, help="drop the samples after this time (s)")
-    p.add_argument("--drop", type=float, default=0.5,
-                   help="failure: cut where the load falls below this fraction of its peak (default 0.5)")  # fmt: skip
-    p.add_argument("--no-failure-cut", action="store_true", help="keep the samples after a load drop")
-    p.add_argument("--step-s", type=float, help="resample the data every STEP seconds (default: keep the samples)")
-    p.add_argument("--dt-s", type=float, help="simulation step (default: the data's median step)")
+    p.add_argument("--drop", type=float, default=DROP,
+                   help="failure or slip: a sudden fall of the load by more than this share of its peak within "
+                   f"three samples (at least 0.1 s); a gradual relaxation is never cut (default {DROP})")  # fmt: skip
+    p.add_argument("--no-failure-cut", action="store_true", help="keep the samples after a failure")
+    p.add_argument(
+        "--tare",
+        action="store_true",
+        help="subtract the preload (the load before the extension moves; default: keep it, and say so)",
+    )
+    p.add_argument("--step-s", type=float,
+                   help="thin the data to as many samples as this step gives, denser where the load changes "
+                   "(default: keep every sample)")  # fmt: skip
+    p.add_argument("--dt-s", type=float,
+                   help="simulation step (default: the data's median step; after --step-s, the smallest step kept, "
+                   f"at least the duration / {MAX_DEFAULT_STEPS})")  # fmt: skip
     p.add_argument("--overwrite", action="store_true", help="replace existing files of the same name")
     p.set_defaults(func=run, outputs={"--out": ("out", "dir")})
 
@@ -64,7 +78,8 @@ def _positive(name: str, value):
 
 def run(args) -> int:
     from bayestissue._validation import ValidationError
-    from bayestissue.io.machine_export import block_section, prepare, read_machine_export
+    from bayestissue.io.export_prepare import prepare
+    from bayestissue.io.machine_export import block_section, read_machine_export
     from bayestissue.io.tables import write_table
     from bayestissue.mechanics import load_experiment
 
@@ -89,16 +104,22 @@ def run(args) -> int:
         raise ValidationError(
             f"{src.name} cross-section", "missing", "a 'Diameter' or 'Width' + 'Thickness' line, or --diameter-mm"
         )
-    columns, trimming = prepare(
-        export, until_s=args.until_s, drop=None if args.no_failure_cut else args.drop, step_s=args.step_s
-    )
+    columns, notes = prepare(export, until_s=args.until_s, drop=None if args.no_failure_cut else args.drop,
+                             tare=args.tare, step_s=args.step_s)  # fmt: skip
+    trimming = "; ".join(notes) or "no trimming"
     name = re.sub(r"[^\w.-]", "_", args.name or export.label or src.stem)
     out = Path(args.out)
     toml_path, csv_path = out / f"{name}.toml", out / f"{name}.csv"
     for path in (toml_path, csv_path):
         if path.exists() and not args.overwrite:
             raise ValidationError(str(path), "an existing file", "a new file name (or --overwrite)")
-    dt = args.dt_s or float(np.median(np.diff(columns["time_s"])))
+    steps = np.diff(columns["time_s"])
+    if args.dt_s:
+        dt = args.dt_s
+    elif args.step_s:
+        dt = max(float(steps.min()), float(columns["time_s"][-1]) / MAX_DEFAULT_STEPS)
+    else:
+        dt = float(np.median(steps))
     if args.control == "stretch":
         observed, protocol = "force_mN", 'kind = "measured_stretch"   # the extension is prescribed'
     else:
@@ -135,6 +156,7 @@ def run(args) -> int:
         lines += ["", "[tissue]", f'preset = "{args.tissue}"']
         if args.bulk_kpa is not None:
             lines.append(f"bulk_kpa = {args.bulk_kpa!r}")
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     write_table(csv_path, columns, meta=meta)
     toml_path.write_text("\n".join(lines) + "\n")
@@ -143,9 +165,13 @@ def run(args) -> int:
     except ValueError:
         toml_path.unlink()
         csv_path.unlink()
+        if created:
+            out.rmdir()  # a refused import leaves nothing behind
         raise
-    print(
-        f"wrote {toml_path} and {csv_path}: {exp.time_s.size} rows over {exp.time_s[-1]:g} s, "
-        f"{args.control}-controlled ({exp.observable[0]} observed), {trimming}"
-    )
+    for line, text in export.skipped:
+        print(f"{src.name} line {line} skipped (not a metadata line this importer reads): {text[:80]}")
+    print(f"wrote {toml_path} and {csv_path}: {exp.time_s.size} rows over {exp.time_s[-1]:g} s, "
+          f"{args.control}-controlled ({exp.observable[0]} observed), simulation step {dt:.4g} s")  # fmt: skip
+    for note in notes:
+        print(f"  {note}")
     return 0

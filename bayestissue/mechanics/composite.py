@@ -38,6 +38,7 @@ from bayestissue.mechanics.laws.dispatch import (
     matrix_energy,
     matrix_stress_tangent,
 )
+from bayestissue.mechanics.laws.mooney_rivlin import mooney_rivlin_energy, mooney_rivlin_stress_tangent
 from bayestissue.mechanics.laws.prony import branch_offset, branch_parameter_count
 from bayestissue.mechanics.laws.volumetric import volumetric_add
 
@@ -55,7 +56,7 @@ def fibre_offset(lay, k):
 def structure_and_strain(lay, p, off, Mk, e, H):
     """Fill the family's structure tensor ``H`` (6,) (dispersed where the fibre law has a dispersion parameter) and
     return its fibre strain :math:`H : E`."""
-    kidx = fibre_dispersion_index(lay[4])
+    kidx = -1 if lay[4] == 0 else fibre_dispersion_index(lay[4])
     if kidx >= 0:
         kap = p[off + kidx]
         for i in range(6):
@@ -82,7 +83,10 @@ def composite_stress_tangent(
     C, Ci, w, Q, work, G, H = scr
     nb_m = lay[3]
     if nb_m == 0:
-        J = matrix_stress_tangent(lay[0], lay[2], e, p, 0, phi_m, bulk, S, D, want_tangent, C, Ci, w, Q, work, G)
+        if lay[0] == 0:  # the paper's matrix without the dispatch (fast path: measured below)
+            J = mooney_rivlin_stress_tangent(e, p[0], p[1], phi_m, bulk, S, D, want_tangent, C, Ci)
+        else:
+            J = matrix_stress_tangent(lay[0], lay[2], e, p, 0, phi_m, bulk, S, D, want_tangent, C, Ci, w, Q, work, G)
         if not (J > 0.0):
             return -1.0
     else:
@@ -110,8 +114,15 @@ def composite_stress_tangent(
     nb_f = lay[7]
     for k in range(lay[8]):
         off = fibre_offset(lay, k)
-        eps = structure_and_strain(lay, p, off, M[k], e, H)
-        sig, dsig = fibre_stress(lay[4], lay[6], eps - eps0[k], p, off)
+        if lay[4] == 0:  # the paper's linear fibre without the dispatch (fast path), on M_k
+            eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
+            eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
+            for i in range(6):
+                H[i] = M[k, i]
+            sig, dsig = p[off] * (eps - eps0[k]), p[off]
+        else:
+            eps = structure_and_strain(lay, p, off, M[k], e, H)
+            sig, dsig = fibre_stress(lay[4], lay[6], eps - eps0[k], p, off)
         if nb_f == 0:
             tau_f[k, 0] = sig if sig > 0.0 else 0.0
             if sig > 0.0:
@@ -146,7 +157,9 @@ def composite_energy(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, wor
     """The incremental potential at ``e`` (module docstring); NaN if inadmissible."""
     C, Ci, w, Q, work, G, H = scr
     nb_m = lay[3]
-    if nb_m == 0:
+    if nb_m == 0 and lay[0] == 0:  # fast path, as in the stress
+        total = mooney_rivlin_energy(e, p[0], p[1], phi_m, bulk, C, Ci)
+    elif nb_m == 0:
         total = matrix_energy(lay[0], lay[2], e, p, 0, phi_m, bulk, C, Ci, w, Q, work, G)
     else:
         wi = matrix_energy(lay[0], lay[2], e, p, 0, phi_m, 0.0, C, Ci, w, Q, work, G)
@@ -169,7 +182,7 @@ def composite_energy(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, wor
         if nb_f == 0:
             wf += phi_f[k] * fibre_energy(lay[4], lay[6], x, p, off)
             continue
-        sig, _ = fibre_stress(lay[4], lay[6], x, p, off)
+        sig = p[off] * x if lay[4] == 0 else fibre_stress(lay[4], lay[6], x, p, off)[0]
         ob = off + lay[5]
         for b in range(nb_f):
             r = 1.0 if b == 0 else p[ob + branch_offset(b)]

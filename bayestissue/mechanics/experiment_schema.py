@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from bayestissue._schema import Key, check_table, reference_rows
-from bayestissue._validation import check_known_keys
+from bayestissue._validation import ValidationError, check_known_keys
 from bayestissue.mechanics.laws import FIBRE_LAWS, MATRIX_LAWS
 from bayestissue.mechanics.loadcases import LOAD_CASES
 from bayestissue.mechanics.presets import PRESETS
@@ -115,7 +115,9 @@ def check_experiment_document(doc: Mapping, file: str) -> None:
     tables = [t for t in TABLES if t]
     top = {k: v for k, v in doc.items() if not isinstance(v, Mapping)}
     check_known_keys(f"{file} top-level key", top, [*TABLES[""], *tables])
-    # a table name given a plain value (specimen = 5) is left to the loader's "expected a [specimen] table"
+    for name in tables:  # a table name given a plain value (tissue = 5)
+        if name in top:
+            raise ValidationError(f"{file} [{name}]", top[name], f"a [{name}] table of key = value entries")
     check_table({k: v for k, v in top.items() if k in TABLES[""]}, TABLES[""], f"{file} top-level")
     for name, table in doc.items():
         if not isinstance(table, Mapping):

@@ -14,7 +14,6 @@ from bayestissue.mechanics.tissue import check_parameters
 __all__ = ["ChannelForward", "ForwardModel", "simulate", "SimulationResult"]
 
 #: The kernel's sensitivity output when none is asked for (never written).
-_NO_SENS = np.empty((1, 1, 1, 1))
 
 
 @dataclass(frozen=True)
@@ -120,8 +119,8 @@ class ForwardModel:
         strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
         tension = np.empty((n_sets, n_t, nf) if full else (1, 1, nf))
         iterations = np.zeros(n_sets, dtype=np.int64)
-        dout = np.empty((n_sets, n_t, n_ch, p2.shape[1]) if want_sens else (1, 1, 1, 1))
-        solve_batch(p2, *self.kernel_inputs, out, ok, strain, tension, full, iterations, want_sens, dout)
+        dout = np.empty((n_sets, n_t, n_ch, p2.shape[1])) if want_sens else None
+        solve_batch(p2, *self.kernel_inputs, out, ok, strain, tension, full, iterations, dout)
         return out, ok, strain, tension, iterations, dout
 
     def _observed(self, steps: np.ndarray) -> np.ndarray:
@@ -144,7 +143,7 @@ class ForwardModel:
         strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
         tension = np.empty((n_sets, n_t, nf) if full else (1, 1, nf))
         iterations = np.zeros(n_sets, dtype=np.int64)
-        solve_batch(p2, *self.kernel_inputs, out, ok, strain, tension, full, iterations, False, _NO_SENS)
+        solve_batch(p2, *self.kernel_inputs, out, ok, strain, tension, full, iterations, None)
         obs = self._observed(out)
         if full:
             return self._result(obs, out, ok, strain, tension, iterations)

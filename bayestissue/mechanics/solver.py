@@ -25,7 +25,7 @@ prescribed stretch where there is one); ``2`` the shear stress of simple shear,
 :math:`P_{12} = (F S)_{12} = S_{12} + \gamma S_{22}` with :math:`\gamma = 2E_{12}` (:math:`F = I + \gamma e_1
 \otimes e_2`).
 
-After each converged step the Prony histories are updated (paper eq. (7)); with ``want_sens`` the step's exact
+After each converged step the Prony histories are updated (paper eq. (7)); with ``dout`` the step's exact
 parameter derivatives follow in the same loop (:mod:`~bayestissue.mechanics.sensitivity`). A parameter set whose
 solve fails (no convergence in :data:`MAX_ITER` iterations, :math:`J \le 0`, a singular tangent, NaN) is flagged:
 its rows of the output are NaN and ``ok`` is False; the other rows are unaffected.
@@ -101,18 +101,6 @@ def _solve6(A, b, x):
 
 
 @kernel
-def _loads(e, kinds, values, n, R, D, want_tangent):
-    """Subtract the dead loads from ``R`` (and add their Jacobian to ``D``)."""
-    for i in range(3):
-        if kinds[i] == 1:
-            P = values[n, i]
-            cii = 1.0 + 2.0 * e[i]
-            R[i] -= P / np.sqrt(cii)
-            if want_tangent:
-                D[i, i] += P * cii**-1.5
-
-
-@kernel
 def _fix(kinds, R, D):
     """Drop the prescribed components' equations: zero residual, identity row and column. Returns the largest
     |R_i| among them before zeroing (their stress scale, for the tolerance)."""
@@ -156,8 +144,13 @@ def _tensions(e, p, lay, M, eps0, cf, qf, tau_f, H):
     nb_f = lay[7]
     for k in range(lay[8]):
         off = fibre_offset(lay, k)
-        eps = structure_and_strain(lay, p, off, M[k], e, H)
-        sig, _ = fibre_stress(lay[4], lay[6], eps - eps0[k], p, off)
+        if lay[4] == 0:  # the paper's linear fibre on M_k (fast path, as in the composite's stress)
+            eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
+            eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
+            sig = p[off] * (eps - eps0[k])
+        else:
+            eps = structure_and_strain(lay, p, off, M[k], e, H)
+            sig = fibre_stress(lay[4], lay[6], eps - eps0[k], p, off)[0]
         if nb_f == 0:
             tau_f[k, 0] = max(0.0, sig)
         for b in range(nb_f):
@@ -167,7 +160,7 @@ def _tensions(e, p, lay, M, eps0, cf, qf, tau_f, H):
 
 @njit(cache=True, fastmath=_FASTMATH)
 def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, lengths, channels, out, ok, strain,
-                tension, full, iterations, want_sens, dout):  # fmt: skip
+                tension, full, iterations, dout):  # fmt: skip
     """Integrate the load case for every parameter set (row of ``params``).
 
     Parameters
@@ -183,7 +176,9 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
     strain : (n_sets, n_steps + 1, 6), tension : (n_sets, n_steps + 1, n_f), output if ``full``: the Green strain
         and each family's tension (the sum over its branches).
     iterations : (n_sets,) int64, output: Newton iterations and step halvings of each set (cost diagnostic).
-    want_sens : compute ``dout`` (n_sets, n_steps + 1, n_ch, n_p): the channels' derivatives by every parameter.
+    dout : None, or (n_sets, n_steps + 1, n_ch, n_p) to be filled with the channels' derivatives by every parameter.
+        numba compiles the two cases apart (its branch pruning on a None argument), so a run without sensitivities
+        carries none of their code.
     """
     n_sets = params.shape[0]
     n_p = params.shape[1]
@@ -202,7 +197,6 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
     e_prev = np.empty(6)
     e_prev2 = np.empty(6)
     e_prev3 = np.empty(6)
-    targets = np.zeros(6)
     obs = np.empty(n_ch)
     work6 = np.empty(6)
     work66 = np.empty((6, 6))
@@ -224,7 +218,29 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
     hf = np.zeros((nf, nbf1))
     tau_f = np.zeros((nf, nbf1))
     tau_f_old = np.zeros((nf, nbf1))
-    sens = SensitivityState(n_p, nf, nbf1, max(nb_m, 1), n_ch, want_sens)
+    sens = SensitivityState(n_p, nf, nbf1, max(nb_m, 1), n_ch, dout is not None)
+    # flat views of the fibre branches' arrays (C order: family-major), for the per-step updates
+    n_fb = nf * nb_f
+    af1, bf1, gf1 = af.reshape(nf * nbf1), bf.reshape(nf * nbf1), gf.reshape(nf * nbf1)
+    qf1, hf1 = qf.reshape(nf * nbf1), hf.reshape(nf * nbf1)
+    tau_f1, tau_f_old1 = tau_f.reshape(nf * nbf1), tau_f_old.reshape(nf * nbf1)
+    # what every set shares, once: each step's load scale and prescribed strains, what the channels need
+    pmax = np.ones(n_t)
+    targets_all = np.zeros((n_t, 6))
+    prescribed = False
+    for n in range(1, n_t):
+        for i in range(6):
+            if kinds[i] == 1:
+                pmax[n] = max(pmax[n], abs(values[n, i]))
+            elif kinds[i] == 2:
+                targets_all[n, i] = 0.5 * (values[n, i] * values[n, i] - 1.0)
+                prescribed = True
+            elif kinds[i] == 3:
+                targets_all[n, i] = values[n, i]
+                prescribed = True
+    stress_needed = nb_m > 0 or dout is not None or _needs_stress(channels)
+    loaded = np.array([i for i in range(3) if kinds[i] == 1], dtype=np.int64)
+    n_loaded = loaded.size
     for s in range(n_sets):
         p = params[s]
         ob = lay[1]
@@ -262,7 +278,7 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
                 for b in range(nbf1):
                     tot += tau_f_old[k, b]
                 tension[s, 0, k] = tot
-        if want_sens:
+        if dout is not None:
             start_sensitivities(sens, p, lay, eps0, tau_f_old)
             for c in range(n_ch):
                 for j in range(n_p):
@@ -270,27 +286,21 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
         good = True
         total_iter = 0
         for n in range(1, n_t):
-            Pmax = 1.0
-            for i in range(6):
-                if kinds[i] == 1:
-                    Pmax = max(Pmax, abs(values[n, i]))
-                elif kinds[i] == 2:
-                    targets[i] = 0.5 * (values[n, i] * values[n, i] - 1.0)
-                elif kinds[i] == 3:
-                    targets[i] = values[n, i]
+            Pmax = pmax[n]
+            targets = targets_all[n]
             for b in range(nb_m):
                 for i in range(6):
                     qm[b, i] = gm[b] * (am[b] * hm[b, i] - bm[b] * tau_m_old[b, i])
-            for k in range(nf):
-                for b in range(nb_f):
-                    qf[k, b] = gf[k, b] * (af[k, b] * hf[k, b] - bf[k, b] * tau_f_old[k, b])
+            for j in range(n_fb):  # every fibre branch, (family, branch) flattened: no inner loop per family
+                qf1[j] = gf1[j] * (af1[j] * hf1[j] - bf1[j] * tau_f_old1[j])
             if n >= 3:  # quadratic extrapolation of the last three states as the initial guess
                 for i in range(6):
                     e[i] = 3.0 * (e_prev[i] - e_prev2[i]) + e_prev3[i]
             elif n == 2:
                 for i in range(6):
                     e[i] = 2.0 * e_prev[i] - e_prev2[i]
-            _set_targets(kinds, targets, e)
+            if prescribed:
+                _set_targets(kinds, targets, e)
             tol = RTOL * Pmax
             alpha = 1.0
             have_old = False
@@ -308,9 +318,13 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
                                              tau_f, True, work6, work66, scr)  # fmt: skip
                 fresh = True
                 if J > 0.0:
-                    _loads(e, kinds, values, n, R, D, True)
-                    big = _fix(kinds, R, D)
-                    tol = RTOL * max(Pmax, big)
+                    for li in range(n_loaded):  # the dead loads (written here: a call costs more than the work)
+                        i = loaded[li]
+                        cii = 1.0 + 2.0 * e[i]
+                        R[i] -= values[n, i] / np.sqrt(cii)
+                        D[i, i] += values[n, i] * cii**-1.5
+                    if prescribed:
+                        tol = RTOL * max(Pmax, _fix(kinds, R, D))
                 rn2 = 0.0
                 rinf = 0.0
                 if J > 0.0:
@@ -385,14 +399,14 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
             if not converged:
                 good = False
                 break
-            if not fresh or nb_m > 0 or want_sens or _needs_stress(channels):
-                if nb_m > 0 or want_sens or _needs_stress(channels):  # the stress (and every tension) at e
+            if not fresh or stress_needed:
+                if stress_needed:  # the stress (and every tension) at e
                     composite_stress_tangent(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, R, D, tau_m,
-                                             tau_f, want_sens, work6, work66, scr)  # fmt: skip
+                                             tau_f, dout is not None, work6, work66, scr)  # fmt: skip
                 else:
                     _tensions(e, p, lay, M, eps0, cf, qf, tau_f, scr[6])
             _observe(channels, kinds, values, n, e, R, lengths, obs)
-            if want_sens:
+            if dout is not None:
                 if not sensitivity_step(sens, e, p, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, n, dt, lengths,
                                         channels,
                                         am, bm, cm, gm, af, bf, cf, gf, hm, hf, tau_m_old, tau_f_old, tau_m, tau_f,
@@ -406,11 +420,10 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
                 for i in range(6):
                     hm[b, i] = am[b] * hm[b, i] + bm[b] * (tau_m[b, i] - tau_m_old[b, i])
                     tau_m_old[b, i] = tau_m[b, i]
-            for k in range(nf):  # eq. (7), the fibre branches
-                for b in range(nb_f):
-                    hf[k, b] = af[k, b] * hf[k, b] + bf[k, b] * (tau_f[k, b] - tau_f_old[k, b])
-                for b in range(nbf1):
-                    tau_f_old[k, b] = tau_f[k, b]
+            for j in range(n_fb):  # eq. (7), the fibre branches
+                hf1[j] = af1[j] * hf1[j] + bf1[j] * (tau_f1[j] - tau_f_old1[j])
+            for j in range(nf * nbf1):
+                tau_f_old1[j] = tau_f1[j]
             for i in range(6):
                 e_prev3[i] = e_prev2[i]
                 e_prev2[i] = e_prev[i]
@@ -431,7 +444,7 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
             for n in range(n_t):
                 for c in range(n_ch):
                     out[s, n, c] = np.nan
-                    if want_sens:
+                    if dout is not None:
                         for j in range(n_p):
                             dout[s, n, c, j] = np.nan
             if full:

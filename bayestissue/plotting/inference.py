@@ -157,7 +157,17 @@ def plot_nested_runs(sample, *, bins: int = 40):
     return fig
 
 
-def plot_predictive(time_s, observed, model_draws, *, least_squares_fit=None, noisy_draws=None, title=None):
+def plot_predictive(
+    time_s,
+    observed,
+    model_draws,
+    *,
+    least_squares_fit=None,
+    noisy_draws=None,
+    title=None,
+    observable: str = "displacement (mm)",
+    unit: str = "mm",
+):
     """Posterior predictive bands (50 % and 90 %) of the model curve over the data.
 
     Two panels: the curves, and everything minus the posterior median curve (the bands are too narrow
@@ -169,6 +179,7 @@ def plot_predictive(time_s, observed, model_draws, *, least_squares_fit=None, no
     model_draws : (n_draws, n_obs) noise-free model predictions for posterior draws.
     least_squares_fit : (n_obs,) prediction at the least-squares estimate.
     noisy_draws : (n_draws, n_obs) predictions with noise (dotted 90 % band of new observations).
+    observable, unit : what is observed and its unit, for the axes (``"force on face 1 (mN)"``, ``"mN"``).
     """
     import matplotlib.pyplot as plt
 
@@ -185,8 +196,8 @@ def plot_predictive(time_s, observed, model_draws, *, least_squares_fit=None, no
         ax.plot(time_s, observed - ref, ".", color="k", ms=2.5, label="data")
         if least_squares_fit is not None:
             ax.plot(time_s, least_squares_fit - ref, "-", color="tab:blue", lw=1, label="least squares")
-    axes[0].set_ylabel("displacement (mm)")
-    axes[1].set_ylabel("minus posterior median (mm)")
+    axes[0].set_ylabel(observable)
+    axes[1].set_ylabel(f"minus posterior median ({unit})")
     axes[1].set_xlabel("time (s)")
     if title:
         axes[0].set_title(title, fontsize=10)
@@ -201,15 +212,16 @@ def _acf(r, max_lag):
     return np.array([np.sum(r[k:] * r[: r.size - k]) / denom for k in range(max_lag + 1)])
 
 
-def plot_residuals(time_s, residuals, *, max_lag: int = 40, title=None):
-    """Residuals over time and their autocorrelation function (with the white-noise 95 % band)."""
+def plot_residuals(time_s, residuals, *, max_lag: int = 40, title=None, unit: str = "mm"):
+    """Residuals over time (in the observed channel's ``unit``) and their autocorrelation function (with the
+    white-noise 95 % band)."""
     import matplotlib.pyplot as plt
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4), gridspec_kw={"width_ratios": [2, 1]})
     a1.plot(time_s, residuals, ".", ms=2.5, color="k")
     a1.axhline(0, color="0.5", lw=0.8)
     a1.set_xlabel("time (s)")
-    a1.set_ylabel("data - model (mm)")
+    a1.set_ylabel(f"data - model ({unit})")
     lag = min(max_lag, len(residuals) - 2)
     acf = _acf(residuals, lag)
     a2.bar(np.arange(lag + 1), acf, color="tab:blue", width=0.8)
@@ -296,7 +308,7 @@ def calibration_figures(outcome) -> dict:
     ls_pred = problem.predict_material(outcome.best.x[None, :])
     for k, e in enumerate(problem.experiments):
         figs[f"residuals_{e.name}"] = plot_residuals(
-            e.time_s, e.observed - ls_pred[k][0], title=f"{e.name}: least-squares residuals"
+            e.time_s, e.observed - ls_pred[k][0], title=f"{e.name}: least-squares residuals", unit=e.unit
         )
     if outcome.sample is None:
         return figs
@@ -321,5 +333,7 @@ def calibration_figures(outcome) -> dict:
             least_squares_fit=ls_pred[k][0],
             noisy_draws=noisy,
             title=f"{e.name}: posterior predictive",
+            observable=e.meta.get("observable", f"observed ({e.unit})"),
+            unit=e.unit,
         )
     return figs

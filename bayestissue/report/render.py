@@ -23,6 +23,7 @@ from bayestissue.report.causes import (
 )
 from bayestissue.report.format import FILTERS
 from bayestissue.report.identify import estimates_context, identify_context
+from bayestissue.report.laws import laws_context
 from bayestissue.report.study import LABELS, StudyRecords, read_study_records
 
 __all__ = ["GUIDE", "render_report", "write_report"]
@@ -77,6 +78,7 @@ def report_context(records: StudyRecords) -> dict:
         "estimates": estimates_context(I),
         "experiments": experiments_context(D, rates),
         "measured": _measured(records.measured),
+        "laws": laws_context(records.laws),
     }
 
 

@@ -12,6 +12,7 @@ from bayestissue.analyses.records import (
     ControlsRecord,
     DiscrepancyRecord,
     IdentifiabilityRecord,
+    LawChoiceRecord,
     MeasuredRecord,
 )
 from bayestissue.io.records import read_record
@@ -28,11 +29,12 @@ class StudyRecords:
     calibration: CalibrationRecord | None = None
     controls: ControlsRecord | None = None
     measured: MeasuredRecord | None = None
+    laws: LawChoiceRecord | None = None
 
 
 def read_study_records(folder) -> StudyRecords:
-    """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls and
-    measured-data records are optional (their stages may not have run), the other two are not."""
+    """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls,
+    measured-data and laws records are optional (their stages may not have run), the other two are not."""
     folder = Path(folder)
 
     def optional(cls):
@@ -45,4 +47,5 @@ def read_study_records(folder) -> StudyRecords:
         calibration=optional(CalibrationRecord),
         controls=optional(ControlsRecord),
         measured=optional(MeasuredRecord),
+        laws=optional(LawChoiceRecord),
     )

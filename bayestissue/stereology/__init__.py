@@ -18,6 +18,7 @@ from bayestissue.stereology.axial import (
     orientation_tensor,
     principal_axes,
     sample_watson,
+    watson_goh_dispersion,
     watson_logpdf,
     watson_pdf,
 )
@@ -118,5 +119,6 @@ __all__ = [
     "to_upper_hemisphere",
     "unit_vector",
     "watson_logpdf",
+    "watson_goh_dispersion",
     "watson_pdf",
 ]

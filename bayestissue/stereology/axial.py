@@ -41,6 +41,7 @@ __all__ = [
     "orientation_tensor",
     "principal_axes",
     "goh_dispersion",
+    "watson_goh_dispersion",
     "axial_angle",
     "watson_log_normaliser",
     "watson_mean_t2",
@@ -109,6 +110,21 @@ def goh_dispersion(T) -> float:
     """
     lam, _ = principal_axes(T)
     return float((1.0 - lam[..., 0]) / 2.0)
+
+
+def watson_goh_dispersion(concentration) -> np.ndarray:
+    r"""The GOH dispersion of a Watson distribution of concentration :math:`k` about its axis :math:`\mu`:
+    :math:`\kappa = (1 - A(k))/2` with :math:`A = E[(\mu^T x)^2]` (:func:`watson_mean_t2`).
+
+    The structure tensor of a density is its second moment :math:`H = E[x \otimes x]`; for a rotationally symmetric
+    density it is :math:`\kappa I + (1 - 3\kappa)\mu\otimes\mu` with :math:`\kappa = \tfrac14\int_0^\pi
+    \rho(\Theta)\sin^3\Theta\, d\Theta` (the definition of Gasser, Ogden & Holzapfel 2006; :math:`\rho`
+    normalised to :math:`\tfrac1{4\pi}\int\rho\, d\omega = 1`), and its eigenvalue along :math:`\mu`,
+    :math:`A = 1 - 2\kappa`, gives the mapping. Bipolar densities (:math:`k > 0`) give :math:`\kappa \in (0, 1/3)`,
+    the uniform one 1/3, girdles (:math:`k < 0`) more than 1/3 (outside the exponential fibre's range).
+    tests/stereology/test_dispersion.py checks it against quadrature over the sphere.
+    """
+    return (1.0 - watson_mean_t2(concentration)) / 2.0
 
 
 def axial_angle(a, b) -> np.ndarray:

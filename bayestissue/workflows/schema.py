@@ -40,7 +40,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     "likelihood": {
         "noise": Key("choice", '"gaussian"', "residual model", choices=tuple(sorted(NOISE_MODELS))),
-        "sd": Key("sd", "sampled", 'known noise sd in mm, or "data" (each data file\'s noise_sd_mm header); omit '
+        "sd": Key("sd", "sampled", 'known noise sd in the observed channel\'s unit (mm of displacement, mN of force, '
+                  'kPa of stress), or "data" (each data file\'s noise_sd_mm header); omit '
                   "to sample it", low=0.0, low_open=True),
         "nu": Key("float", "4.0", "Student-t degrees of freedom (student_t)", low=0.0, low_open=True),
         "rho": Key("float", "sampled", "known lag-one correlation (ar1), in (-1, 1)"),
@@ -84,11 +85,11 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "mixture_components": Key("int", "16", "largest number of mixture components", low=1),
     },
     "nested": {
-        "n_live": Key("int", "1000", "live points of each nested run", low=10),
+        "n_live": Key("int", "1000", "live points of each nested run", low=10, high=100_000),
         "n_eff": Key("int", "1000", "importance effective sample size of each run", low=1),
-        "n_runs": Key("int", "4", "independent nested runs (the verdict needs at least 4)", low=1),
+        "n_runs": Key("int", "4", "independent nested runs (the verdict needs at least 4)", low=1, high=1000),
         "n_processes": Key("int", "min(n_runs, cores)", "parallel processes", low=1),
-        "n_networks": Key("int", "4", "neural networks per bound", low=1),
+        "n_networks": Key("int", "4", "neural networks per bound", low=1, high=64),
         "f_live": Key("float", "0.01", "the exploration ends when the live set holds less than this share of the "
                       "evidence", low=0.0, low_open=True),
         "max_evaluations": Key("int", "none", "likelihood evaluations per run at most", low=1),
@@ -121,6 +122,10 @@ def check_mapping(cfg: Mapping, *, where: str = "configuration") -> None:
             raise ValidationError(f"{where} [{section}]", table, "a table of key = value entries")
         known = SCHEMA[section]
         check_table(table, known, f"{where} [{section}]")
+    sampler = cfg.get("sampler", {})
+    if "min_steps" in sampler and sampler["min_steps"] > sampler.get("max_steps", 20000):
+        raise ValidationError(f"{where} [sampler] min_steps", sampler["min_steps"],
+                              f"at most max_steps ({sampler.get('max_steps', 20000)})")  # fmt: skip
 
 
 def config_markdown() -> str:

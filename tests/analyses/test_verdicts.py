@@ -162,3 +162,26 @@ def test_confusion_and_verdict_text():
     assert table["angle"]["named"] == 1 and table["angle"]["verdicts"]["unexplained (unexplained)"] == 1
     assert V.verdict_text("2+3 (indistinguishable)") == "fibre angle + specimen stiffness (indistinguishable)"
     assert V.verdict_text("none") == "no difference" and V.verdict_text("unexplained (unexplained)") == "unexplained"
+
+
+@pytest.mark.parametrize(
+    ("threshold", "below", "at_or_above"),
+    [
+        (V.BAYES_POSITIVE, "not worth more than a mention", "positive"),
+        (V.BAYES_STRONG, "positive", "strong"),
+        (V.BAYES_VERY_STRONG, "strong", "very strong"),
+    ],
+)
+def test_evidence_strength_at_its_thresholds(threshold, below, at_or_above):
+    err = 0.01
+    assert V.evidence_strength(threshold - 1e-9, err) == below
+    assert V.evidence_strength(threshold, err) == at_or_above
+    assert V.evidence_strength(threshold + 1e-9, err) == at_or_above
+
+
+def test_evidence_strength_within_its_error():
+    """A factor of 10 nats with an error of 5 is no preference; just above two errors it is graded."""
+    assert V.evidence_strength(10.0, 5.0) == "within error"
+    assert V.evidence_strength(10.0 + 1e-9, 5.0) == "very strong"
+    assert V.evidence_strength(10.0 - 1e-9, 5.0) == "within error"
+    assert V.evidence_strength(float("nan"), 0.1) == "within error"

@@ -40,7 +40,11 @@ EXPERIMENT_CASES = [
     ("[data]", "[tissue]\nfibre_directions = [[1, 0, 0]]\n\n[data]", r"'fibre_directions' \(did you mean 'directions'"),
     ("[data]", "[tisue]\nbulk_kpa = 1\n\n[data]", r"T1.toml table: .*got '\[tisue\]' \(did you mean '\[tissue\]'"),
     # a key of another protocol kind
-    ('kind = "creep"', 'kind = "ramp"', r"\[protocol\] key: expected one of \['kind', 'hold_stress_kpa'"),
+    (
+        'kind = "creep"',
+        'kind = "ramp"',
+        r"\[protocol\] key: expected one of \['kind', 'mode', 'ratio', 'hold_stress_kpa'.*got 'stress_kpa'",
+    ),
     # types: a boolean is not the number 1, a string not a number
     ("length_x_mm = 5.33", "length_x_mm = true", r"T1.toml \[specimen\] length_x_mm: expected a number > 0, got True"),
     ("dt_s = 6.0", 'dt_s = "6"', r"T1.toml \[simulation\] dt_s: expected a number > 0, got '6'"),
@@ -171,3 +175,22 @@ def test_output_paths(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     for argv, pattern in _output_cases(tmp_path):
         _refused(capsys, argv, pattern)
+
+
+def test_a_table_given_a_plain_value(t1, capsys):
+    (t1 / "T1.toml").write_text("tissue = 5\n" + (t1 / "T1.toml").read_text())
+    _refused(capsys, ["simulate", str(t1 / "T1.toml")], r"T1.toml \[tissue\]: expected a \[tissue\] table .*got 5")
+
+
+def test_ctrl_c_prints_one_line_and_how_to_resume(tmp_path, capsys, monkeypatch):
+    """A KeyboardInterrupt during a command: no traceback, exit 130, and for fit where to resume from."""
+    import bayestissue.cli.fit as fit
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fit, "run", interrupted)
+    code = main(["fit", str(DATA / "T1.toml"), "--out", str(tmp_path / "run")])
+    err = capsys.readouterr().err
+    assert code == 130 and err.count("\n") == 1 and "Traceback" not in err
+    assert "interrupted; what was checkpointed in" in err and "--resume continues it" in err

@@ -62,16 +62,16 @@ def test_import_stretch_controlled(tmp_path, capsys):
 
 def test_import_force_controlled_other_shape(tmp_path):
     """Semicolons, 'key: value' metadata with units in the key or the value, ms, kN and cm, another column order;
-    --control force makes the force the load and the displacement the observable; --step-s resamples."""
+    --control force makes the force the load and the displacement the observable."""
     src = _write(tmp_path, SKIN)
     code = main(["import", str(src), "--out", str(tmp_path), "--control", "force", "--step-s", "0.5", "--tissue",
                  "rubber", "--name", "skin"])  # fmt: skip
     assert code == 0
     exp = load_experiment(tmp_path / "skin.toml")
     assert exp.controls == "force" and exp.observable[:2] == ("displacement", "mm")
-    np.testing.assert_allclose(exp.time_s, np.arange(0, 3.01, 0.5))
-    np.testing.assert_allclose(exp.displacement_mm[::2], [0, 0.2, 0.4, 0.6])
-    np.testing.assert_allclose(exp.force_mN[::2], [0, 1000, 2000, 2500])
+    np.testing.assert_allclose(exp.time_s, [0, 1, 2, 3])  # fewer samples than the step asks for: all kept
+    np.testing.assert_allclose(exp.displacement_mm, [0, 0.2, 0.4, 0.6])
+    np.testing.assert_allclose(exp.force_mN, [0, 1000, 2000, 2500])
     assert exp.specimen_mm == pytest.approx((15.0, 5.0, 0.12))
 
 
@@ -93,7 +93,7 @@ def test_import_refusals(tmp_path, capsys, edit, message):
     assert main(["import", str(src), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert message in err and "export.csv" in err and err.count("\n") == 1
-    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    assert not (tmp_path / "out").exists()
 
 
 def test_import_refuses_to_overwrite_and_bad_options(tmp_path, capsys):
@@ -109,13 +109,15 @@ def test_import_refuses_to_overwrite_and_bad_options(tmp_path, capsys):
 
 
 def test_prepare_trims(tmp_path):
-    from bayestissue.io.machine_export import prepare
+    from bayestissue.io.export_prepare import prepare
 
     export = read_machine_export(_write(tmp_path, TENDON))
-    cols, note = prepare(export)
-    assert cols["force_mN"][-1] == pytest.approx(1020) and "from t = 3 s" in note
-    cols, note = prepare(export, drop=None)
-    assert cols["time_s"].size == 8 and note == "no trimming"
-    cols, note = prepare(export, until_s=1.2, drop=None)
+    cols, notes = prepare(export)
+    assert cols["force_mN"][-1] == pytest.approx(1020) and "samples from t = 3 s on are dropped" in notes[-1]
+    assert "preload 10 mN at zero extension kept" in notes[0]
+    cols, notes = prepare(export, drop=None)
+    assert cols["time_s"].size == 8 and len(notes) == 1
+    cols, notes = prepare(export, until_s=1.2, drop=None, tare=True)
     np.testing.assert_allclose(cols["time_s"], [0, 0.5, 1.0])
-    assert "cut at t = 1.2 s" in note
+    np.testing.assert_allclose(cols["force_mN"], [0, 200, 410])
+    assert "cut at t = 1.2 s" in notes[1] and "tare: subtracted the preload 10 mN" in notes[0]

@@ -1,5 +1,6 @@
 """`bayestissue simulate`: output, and exit status 2 with a one-line message (no traceback) on bad input."""
 
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -57,6 +58,11 @@ def test_simulate_prints(capsys):
         (["--params", "nu=1"], "--params: expected one of the parameter names"),
         (["--params", "gamma2=1.5"], "gamma2: expected a value in [0, 1), got 1.5"),
         (["--params", "beta1=-1"], "beta1: expected a rate > 0 (1/s), got -1.0"),
+        # admissible values the model cannot be solved with (issue 34: exit 1 before, without the reason)
+        (
+            ["--params", "kappa=0,mu=0"],
+            "--params: expected parameters the model can be solved with, got 'kappa=0,mu=0'",
+        ),
     ],
 )
 def test_bad_params_exit_2_without_traceback(args, message):
@@ -73,3 +79,15 @@ def test_bad_params_exit_2_without_traceback(args, message):
 def test_missing_experiment_exit_2(capsys, tmp_path):
     assert main(["simulate", str(tmp_path / "none.toml")]) == 2
     assert "experiment file" in capsys.readouterr().err
+
+
+def test_another_tissue_starts_from_its_preset(tmp_path, capsys):
+    """A tendon experiment is simulated from the middle of the tendon preset's boxes (the fibre modulus about
+    31.6 MPa, not the slug paper's kPa), and the slug paper's T1 set is refused for it."""
+    exp = tmp_path / "tendon.toml"
+    exp.write_text((DATA / "T1.toml").read_text().replace("[data]", '[tissue]\npreset = "tendon"\n\n[data]'))
+    shutil.copy(DATA / "T1.csv", tmp_path / "T1.csv")
+    assert main(["simulate", str(exp), "--out", str(tmp_path / "sim.csv")]) == 0
+    assert "ginf1=31622.8" in (tmp_path / "sim.csv").read_text()
+    assert main(["simulate", str(exp), "--preset", "T1"]) == 2
+    assert "--preset: expected 'initial' for the tendon tissue of tendon.toml" in capsys.readouterr().err

@@ -100,6 +100,10 @@ def test_a_config_with_every_kind_passes():
         ("sampler", "moves", "hmc", "one of"),
         ("sampler", "engine", "mcmc", r"one of \['emcee', 'nested'\]"),
         ("nested", "n_live", 5, "an integer >= 10"),
+        # sizes that exhausted memory or never finished (issue 34): an upper bound, just above and at it
+        ("nested", "n_live", 10**12, "an integer >= 10 and <= 100000"),
+        ("nested", "n_runs", 1001, "an integer >= 1 and <= 1000"),
+        ("nested", "n_networks", 10**6, "an integer >= 1 and <= 64"),
         ("nested", "discard_exploration", "yes", "true or false"),
         ("output", "max_draws", 0, "an integer >= 1"),
     ],
@@ -118,3 +122,12 @@ def test_unknown_sections_and_keys_are_refused_by_name():
         check_mapping({"sampler": {"walkers": 3}})
     with pytest.raises(ValidationError, match=r"\[output\]: expected a table of key = value entries"):
         check_mapping({"output": 3})
+
+
+def test_upper_bounds_are_inclusive_and_min_steps_at_most_max_steps():
+    check_mapping({"nested": {"n_runs": 1000, "n_live": 100_000, "n_networks": 64}})
+    check_mapping({"sampler": {"min_steps": 500, "max_steps": 500}})
+    with pytest.raises(ValidationError, match=r"\[sampler\] min_steps: expected at most max_steps \(500\), got 501"):
+        check_mapping({"sampler": {"min_steps": 501, "max_steps": 500}})
+    with pytest.raises(ValidationError, match=r"min_steps: expected at most max_steps \(20000\)"):
+        check_mapping({"sampler": {"min_steps": 20001}})

@@ -207,8 +207,9 @@ def nested_target(problem: CalibrationProblem, options: NestedOptions):
     """What a run samples: ``(n_dim, prior transform, log-likelihood, complete)``. With the noise sds integrated
     out (``options.marginalise_noise`` and only Gaussian sds among the nuisance parameters) the runs see the
     ``n_material`` sampled material parameters and the marginal likelihood, and ``complete(points, rng)`` draws the
-    sds; otherwise all of ``theta`` and ``complete`` is the identity."""
-    if options.marginalise_noise and can_marginalise(problem):
+    sds; otherwise all of ``theta`` and ``complete`` is the identity. nautilus needs two dimensions at least: a
+    problem with one material parameter keeps its sds sampled."""
+    if options.marginalise_noise and can_marginalise(problem) and problem.n_material >= 2:
         marginal = MarginalNoise(problem)
         return problem.n_material, problem.material.from_prior_quantiles, marginal.log_likelihood, marginal.complete
 

@@ -82,6 +82,19 @@ def _power(w, Q, k, a, b):
 
 
 @kernel
+def _power_matrix(w, Q, k, P):
+    """:math:`P = C^k` (3, 3) from the eigen-decomposition (three powers, one per eigenvalue)."""
+    c0 = math.exp(k * math.log(w[0]))
+    c1 = math.exp(k * math.log(w[1]))
+    c2 = math.exp(k * math.log(w[2]))
+    for a in range(3):
+        for b in range(a, 3):
+            v = Q[a, 0] * Q[b, 0] * c0 + Q[a, 1] * Q[b, 1] * c1 + Q[a, 2] * Q[b, 2] * c2
+            P[a, b] = v
+            P[b, a] = v
+
+
+@kernel
 def ogden_stress_tangent(e, p, off, n_terms, phi_m, bulk, S, D, want_tangent, C, Ci, w, Q, work):
     """Stress ``S`` (6,) and, if ``want_tangent``, tangent ``D`` (6, 6) of the isochoric Ogden energy plus the penalty
     of modulus ``bulk``; the law's parameters are ``p[off : off + 2 n_terms]`` as (mu_1, alpha_1, ...). Returns J
@@ -97,6 +110,7 @@ def ogden_stress_tangent(e, p, off, n_terms, phi_m, bulk, S, D, want_tangent, C,
             for j in range(6):
                 D[i, j] = 0.0
     volumetric_add(J, bulk, Ci, S, D, want_tangent)
+    P = C  # C is not needed past the decomposition: it holds C^(m-1) of each term in turn
     for t in range(n_terms):
         mu = p[off + 2 * t]
         al = _alpha(p[off + 2 * t + 1])
@@ -106,9 +120,10 @@ def ogden_stress_tangent(e, p, off, n_terms, phi_m, bulk, S, D, want_tangent, C,
         s = 0.0
         for k in range(3):
             s += math.exp(m * math.log(w[k]))
+        _power_matrix(w, Q, m - 1.0, P)
         for i in range(6):
             a, b = VOIGT_I[i], VOIGT_J[i]
-            S[i] += A * B * (_power(w, Q, m - 1.0, a, b) - s / 3.0 * Ci[a, b])
+            S[i] += A * B * (P[a, b] - s / 3.0 * Ci[a, b])
         if not want_tangent:
             continue
         # divided differences of f(c) = c^(m-1) between the eigenvalues (Daleckii-Krein)
@@ -117,17 +132,18 @@ def ogden_stress_tangent(e, p, off, n_terms, phi_m, bulk, S, D, want_tangent, C,
                 work[k, l] = power_divided_difference(w[k], w[l], m - 1.0)
         for i in range(6):
             a, b = VOIGT_I[i], VOIGT_J[i]
-            pab = _power(w, Q, m - 1.0, a, b)
-            tab = pab - s / 3.0 * Ci[a, b]
+            tab = P[a, b] - s / 3.0 * Ci[a, b]
             for j in range(6):
                 c, d = VOIGT_I[j], VOIGT_J[j]
                 dk = 0.0
                 for k in range(3):
+                    qak = Q[a, k]
+                    qck = Q[c, k]
+                    qdk = Q[d, k]
                     for l in range(3):
-                        dk += Q[a, k] * Q[b, l] * work[k, l] * 0.5 * (Q[c, k] * Q[d, l] + Q[d, k] * Q[c, l])
-                pcd = _power(w, Q, m - 1.0, c, d)
+                        dk += qak * Q[b, l] * work[k, l] * 0.5 * (qck * Q[d, l] + qdk * Q[c, l])
                 dci = -0.5 * (Ci[a, c] * Ci[b, d] + Ci[a, d] * Ci[b, c])
-                dt = dk - m / 3.0 * pcd * Ci[a, b] - s / 3.0 * dci
+                dt = dk - m / 3.0 * P[c, d] * Ci[a, b] - s / 3.0 * dci
                 val = A * B * (-(al / 6.0) * Ci[c, d] * tab + dt)
                 D[i, j] += 2.0 * val * (1.0 if j < 3 else 2.0)
     return J

@@ -1,0 +1,41 @@
+"""Every benchmark the README shows runs (a smoke version: small sizes; the figures they print are not checked
+here, only that they run and print them). The README's own commands with their full sizes are timed in the README."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SMOKE = {
+    "bench_forward.py": (["--n-sets", "40", "--n-baseline", "1", "--rounds", "1", "--skip-compile"],
+                         "plug-in kernel / frozen pre-plug-in kernel"),
+    "bench_sensitivity.py": (["--n-sets", "4", "--repeats", "1"], "x a forward run"),
+    "bench_overhead.py": (["--sets", "2", "--reps", "3", "--repeats", "1"], "x kernel"),
+    "bench_sampling.py": (["--model", "mirror", "--coordinates", "creep", "--moves", "mixture", "--walkers", "36",
+                           "--max-steps", "60", "--adapt-rounds", "1"], "R-hat"),
+    "bench_micrographs.py": (["--sizes", "120x160", "--sections", "6", "--tile", "120x160"], "px x 6 sections"),
+    "compare_engines.py": ([str(ROOT / "figures" / "calibration_summary_T1_mirror.csv"),
+                            str(ROOT / "figures" / "calibration_summary_T1_mirror.csv")], "marginals AGREE"),
+}  # fmt: skip
+
+
+def test_every_benchmark_in_the_readme_has_a_smoke_run():
+    readme = (ROOT / "README.md").read_text()
+    scripts = [p for p in (ROOT / "benchmarks").glob("*.py") if '__name__ == "__main__"' in p.read_text()]
+    shown = {p.name for p in scripts if p.name in readme}
+    assert shown <= set(SMOKE), shown - set(SMOKE)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", sorted(SMOKE))
+def test_benchmark_smoke(script):
+    args, expected = SMOKE[script]
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", MPLBACKEND="Agg")
+    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), *args], capture_output=True, text=True,
+                         cwd=ROOT, env=env, timeout=900)  # fmt: skip
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert expected in run.stdout, run.stdout[-3000:]
