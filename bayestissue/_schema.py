@@ -98,7 +98,7 @@ def valid(v, key: Key) -> bool:
     if k == "numbers":
         return _is_numbers(v)
     if k == "rows":
-        return isinstance(v, list) and all(_is_numbers(r) for r in v)
+        return isinstance(v, list) and all(_is_numbers(r) and len(r) == 3 for r in v)
     if k == "names":
         return _is_names(v)
     if k == "fixed":
@@ -128,8 +128,20 @@ def check_table(table: Mapping, keys: Mapping[str, Key], where: str, *, allowed=
     """
     check_known_keys(f"{where} key", table, list(keys) if allowed is None else list(allowed))
     for name, value in table.items():
+        if keys[name].kind == "rows" and isinstance(value, list):
+            _check_rows(value, f"{where} {name}")
         if not valid(value, keys[name]):
             raise ValidationError(f"{where} {name}", value, expected(keys[name]))
+
+
+def _check_rows(rows: list, field: str) -> None:
+    """The first bad row of an [x, y, z] list, by number: its length, then its entries."""
+    for i, row in enumerate(rows, start=1):
+        if not isinstance(row, list) or len(row) != 3:
+            raise ValidationError(f"{field} row {i}", row, "three numbers [x, y, z]")
+        for x in row:
+            if not _is_number(x):
+                raise ValidationError(f"{field} row {i}", row, "finite numbers")
 
 
 def reference_rows(keys: Mapping[str, Key]) -> list[str]:

@@ -15,7 +15,7 @@ import sys
 
 from bayestissue import __version__
 
-__all__ = ["main", "build_parser", "plain", "progress_bar"]
+__all__ = ["main", "build_parser", "plain", "progress_bar", "seed"]
 
 #: Sub-command modules, in the order ``--help`` lists them.
 _COMMANDS = ("simulate", "fit", "importer", "stereology", "micrographs")
@@ -25,6 +25,18 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own usage errors: exit 2 with a one-line message
         self.print_usage(sys.stderr)
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def seed(text: str) -> int:
+    """argparse type of every ``--seed``: an integer >= 0 (numpy's generators refuse a negative seed, naming no
+    option)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
 
 
 def plain(text: str) -> str:

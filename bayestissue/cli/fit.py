@@ -11,6 +11,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from bayestissue.cli import seed
+
 __all__ = ["register", "run"]
 
 
@@ -30,7 +32,7 @@ def register(subparsers) -> None:
         help="continue the run checkpointed in --out (refused if its inputs, configuration or code differ)",
     )
     mode.add_argument("--overwrite", action="store_true", help="replace the run in a non-empty --out")
-    p.add_argument("--seed", type=int, help="master seed (overrides the configuration)")
+    p.add_argument("--seed", type=seed, help="master seed (overrides the configuration)")
     p.add_argument(
         "--engine",
         choices=["emcee", "nested"],

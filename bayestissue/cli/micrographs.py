@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from bayestissue._validation import ValidationError
-from bayestissue.cli import plain, progress_bar
+from bayestissue.cli import plain, progress_bar, seed
 from bayestissue.io.micrographs import read_micrographs, write_micrographs, write_truth
 from bayestissue.io.stereology_files import write_line_system
 from bayestissue.io.tables import write_table
@@ -66,7 +66,7 @@ def register(subparsers) -> None:
     g = sub.add_parser("phantom", help="write a synthetic serial-section stack and its truth")
     g.add_argument("outdir", help="folder for the sections and truth.json (created)")
     g.set_defaults(outputs={"OUTDIR": ("outdir", "dir")})
-    g.add_argument("--seed", type=int, default=1, help="phantom seed (default 1); same seed, same stack")
+    g.add_argument("--seed", type=seed, default=1, help="phantom seed (default 1); same seed, same stack")
     g.add_argument(
         "--extent-um",
         type=float,
@@ -103,13 +103,16 @@ def register(subparsers) -> None:
     a.add_argument("--grid-spacing-um", type=float, default=10.0)
     a.add_argument("--period", type=int, default=2, help="count every k-th section")
     a.add_argument("--method", choices=("deconvolution", "lab"), default="deconvolution")
-    a.add_argument("--seed", type=int, default=0)
+    a.add_argument("--seed", type=seed, default=0)
     a.add_argument("--overlay-section", type=int, default=None, help="default: first counted")
     a.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    from bayestissue._validation import check_positive
+
+    check_positive("--section-thickness-um", args.section_thickness_um)  # before any work (35 s of phantom before)
     if args.micrographs_command == "phantom":
         t0 = time.perf_counter()
         opts = PhantomOptions(extent_um=tuple(args.extent_um), voxel_um=args.voxel_um, smc_fraction=args.smc_fraction)
@@ -139,13 +142,21 @@ def _pixel_size(source, given: float | None) -> float:
     from bayestissue._validation import ValidationError, check_positive
     from bayestissue.io.micrographs import stack_files, tiff_pixel_size_um
 
-    first = stack_files(source)[0]  # the reader's order: the first section is the one whose metadata counts
-    stated = tiff_pixel_size_um(first) if first.suffix.lower() in (".tif", ".tiff") else None
+    files = stack_files(source)
+    first = files[0]  # the reader's order: the first section is the one whose metadata counts
+    tiffs = [f for f in files if f.suffix.lower() in (".tif", ".tiff")]
     if given is not None:
         given = check_positive("--pixel-size-um", given)
+        stated = tiff_pixel_size_um(first, check=False) if first in tiffs else None
         if stated is not None and abs(stated / given - 1) > 1e-3:
             print(f"note: using --pixel-size-um {given:g}; {first.name} states {stated:.6g} um", file=sys.stderr)
         return given
+    stated = tiff_pixel_size_um(first) if first in tiffs else None
+    for other in tiffs[1:]:  # every section of a folder must state the same size (or none)
+        size = tiff_pixel_size_um(other)
+        if size is not None and stated is not None and abs(size / stated - 1) > 1e-6:
+            raise ValidationError(f"{other.name} pixel size", f"{size:.6g} um",
+                                  f"the {stated:.6g} um of {first.name} (one pixel size per stack)")  # fmt: skip
     if stated is None:
         raise ValidationError(
             "--pixel-size-um", "not given", "the pixel size in um", f"{first.name} states none in its metadata"

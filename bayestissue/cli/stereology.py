@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 
-from bayestissue.cli import plain
+from bayestissue.cli import plain, seed
 
 __all__ = ["register", "run"]
 
@@ -35,7 +35,7 @@ def register(subparsers) -> None:
     s = sub.add_parser("surs", help="select SURS section indices (random start, every k-th)")
     s.add_argument("--n-sections", type=int, required=True, help="sections in the series")
     s.add_argument("--period", type=int, required=True, help="take every k-th section")
-    s.add_argument("--seed", type=int, default=None)
+    s.add_argument("--seed", type=seed, default=None)
 
     f = sub.add_parser("fractions", help="volume fractions and CE predictors from point counts")
     f.add_argument("counts", help="point-count CSV (section, <component>_points ...)")
@@ -43,7 +43,7 @@ def register(subparsers) -> None:
 
     ln = sub.add_parser("lines", help="length density, orientation tensor, Watson mixture")
     ln.add_argument("lines", help="line-system CSV (with its .toml sidecar)")
-    ln.add_argument("--seed", type=int, default=0)
+    ln.add_argument("--seed", type=seed, default=0)
     ln.add_argument(
         "--uniform-background",
         action="store_true",
@@ -76,7 +76,7 @@ def register(subparsers) -> None:
         default="parametric",
         help="fraction bootstrap (naive = labelled comparison only; it overestimates)",
     )
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--seed", type=seed, default=0)
     b.add_argument("--out", required=True, help="output CSV")
     b.set_defaults(outputs={"--out": ("out", "file")})
     p.set_defaults(func=run)
@@ -178,8 +178,12 @@ def _rose(args) -> int:
 
 
 def _replicates(args) -> int:
+    from bayestissue._validation import ValidationError
     from bayestissue.io.stereology_files import read_line_system, read_point_counts, write_replicates
     from bayestissue.stereology import LineSystem, PointCounts, stereology_replicates
+
+    if args.n_boot < 2:
+        raise ValidationError("--n-boot", args.n_boot, "at least 2 bootstrap replicates (a spread needs two)")
 
     pc = PointCounts.from_file(args.counts)
     ls = LineSystem.from_file(args.lines)

@@ -24,6 +24,8 @@ __all__ = [
     "IMAGE_SUFFIXES",
     "read_micrographs",
     "tiff_pixel_size_um",
+    "PIXEL_RANGE_UM",
+    "WRITER_DPI",
     "section_files",
     "stack_files",
     "write_micrographs",
@@ -138,33 +140,60 @@ _UNIT_UM = {
 }  # fmt: skip
 
 
-def tiff_pixel_size_um(path: str | Path) -> float | None:
+#: Inch resolutions that image writers put in by default (screen 72 and 96 dpi, print 150 to 1200 dpi): with no
+#: ImageJ unit beside them they are not a calibration (300 dpi would read as 85 um pixels).
+WRITER_DPI = (72.0, 96.0, 150.0, 200.0, 300.0, 600.0, 1200.0)
+#: The pixel sizes a stated calibration may give (um): from electron-microscope scales to a whole-slide overview.
+PIXEL_RANGE_UM = (1e-4, 1e3)
+
+
+def tiff_pixel_size_um(path: str | Path, *, check: bool = True) -> float | None:
     """The pixel size (um) a TIFF states, or None if it states none.
 
-    From the XResolution tag (pixels per ResolutionUnit: inch or centimetre), or, where the unit is "none" (as
-    ImageJ writes it), from ImageJ's ``unit`` entry in the image description (micron, nm, mm ...). A resolution of
-    72 pixels per inch with no ImageJ unit is the writers' default, not a measurement: None.
+    From the XResolution and YResolution tags (pixels per ResolutionUnit: inch or centimetre), or, where the unit is
+    "none" (as ImageJ writes it), from ImageJ's ``unit`` entry in the image description (micron, nm, mm ...). An inch
+    resolution among :data:`WRITER_DPI` with no ImageJ unit is a writer's default, not a measurement: None. Refused:
+    pixels that are not square (X and Y differ), and sizes outside :data:`PIXEL_RANGE_UM` (unless ``check`` is
+    False: then the X size as stated, for a note beside a size the user gave).
     """
-    with _refusing_damage(Path(path)):
-        return _stated_pixel_size(path)
+    path = Path(path)
+    with _refusing_damage(path):
+        stated = _stated_pixel_size(path)
+    if stated is None:
+        return None
+    x, y = stated
+    if not check:
+        return x
+    if abs(x - y) > 1e-6 * max(x, y):
+        raise ValidationError(f"{path.name} pixel size", f"{x:.6g} um (X) x {y:.6g} um (Y)",
+                              "square pixels (the same X and Y resolution)", "or give --pixel-size-um")  # fmt: skip
+    lo, hi = PIXEL_RANGE_UM
+    if not lo <= x <= hi:
+        raise ValidationError(f"{path.name} pixel size", f"{x:.6g} um", f"a pixel size in [{lo:g}, {hi:g}] um",
+                              "the resolution tags say so; give --pixel-size-um")  # fmt: skip
+    return x
 
 
-def _stated_pixel_size(path) -> float | None:
+def _stated_pixel_size(path) -> tuple[float, float] | None:
     with tifffile.TiffFile(path) as tif:
         page = tif.pages[0]
         tags = page.tags
         if "XResolution" not in tags:
             return None
-        num, den = tags["XResolution"].value
-        if not num or not den:
-            return None
-        per_unit = num / den
+        per = []
+        for key in ("XResolution", "YResolution" if "YResolution" in tags else "XResolution"):
+            num, den = tags[key].value
+            if not num or not den:
+                return None
+            per.append(num / den)
         unit = int(tags["ResolutionUnit"].value) if "ResolutionUnit" in tags else 2
         ij = tif.imagej_metadata or {}
-        if unit in (2, 3) and not (unit == 2 and abs(per_unit - 72.0) < 1e-9 and "unit" not in ij):
-            return _UNIT_UM[unit] / per_unit
+        if unit in (2, 3):
+            if unit == 2 and "unit" not in ij and any(abs(per[0] - d) < 1e-6 for d in WRITER_DPI):
+                return None
+            return _UNIT_UM[unit] / per[0], _UNIT_UM[unit] / per[1]
         name = str(ij.get("unit", "")).strip().lower()
-        return _UNIT_UM[name] / per_unit if name in _UNIT_UM else None
+        return (_UNIT_UM[name] / per[0], _UNIT_UM[name] / per[1]) if name in _UNIT_UM else None
 
 
 def read_micrographs(source: str | Path) -> tuple[np.ndarray, list[str]]:

@@ -109,6 +109,10 @@ def read_point_counts(path: str | Path) -> dict:
             counts[i, j],
             f"a whole number of points in [0, {MAX_POINTS:g}]",
         )
+    empty = np.flatnonzero(counts.sum(axis=0) == 0)
+    if empty.size:  # no point hit it in any section: every ratio and variance of it is 0/0
+        hint = "leave out the column of a component that is not there"
+        raise ValidationError(f"{name} column {names[empty[0]]}", "0 points in every section", "a point hit", hint)
     components = tuple(c[: -len("_points")] for c in names)
     if "excluded" in meta:
         excluded = tuple(s.strip() for s in meta["excluded"].split(",") if s.strip())

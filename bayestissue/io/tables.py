@@ -78,6 +78,8 @@ def read_table(
     number (``n/a``, a decimal comma).
     """
     path = Path(path)
+    if path.is_dir():  # e.g. [data] file = "" names the experiment's own folder
+        raise ValidationError("table file", str(path), "a CSV file (this is a folder)")
     if not path.is_file():
         raise FileNotFoundError(f"table file {str(path)!r} does not exist")
     text = _decode(path)

@@ -300,6 +300,8 @@ def _build(doc: dict, path: Path, columns: dict, meta: dict, data_file: Path | N
     else:
         duration = check_positive("data.duration_s", _get(data, "duration_s", "data"))
         step = check_positive("data.step_s", _get(data, "step_s", "data"))
+        if step > duration:  # one row (t = 0) would be all that is simulated
+            raise ValidationError("data.step_s", step, f"a step at most data.duration_s ({duration:g} s)")
         time_s = np.arange(0.0, duration + 0.5 * step, step)
     prot = _table(doc, "protocol")
     protocol = protocol_from_mapping(prot, columns=columns, length_x_mm=dims[0])

@@ -198,6 +198,14 @@ def _ensemble_centres(problem, fits, best, config):
         u = problem.material.to_unit(r.x[None, :])[0]
         if all(np.max(np.abs(u - problem.material.to_unit(d.x[None, :])[0])) > 0.02 for d in distinct):
             distinct.append(r)
+    if not distinct:  # every start failed to solve, or every cost is NaN (issue 34: a ZeroDivisionError before)
+        names = ", ".join(sorted({e.name for e in problem.experiments}))
+        raise ValidationError(
+            f"least-squares warm start on {names}", f"{len(fits)} fits, none with a finite cost",
+            "a parameter set in the boxes that the model can solve and that comes near the data",
+            "the data may be far outside what the boxes allow (units? a displacement in um read as mm?), "
+            "or every solve failed",
+        )  # fmt: skip
     n = config.sampler.n_ensembles
     chosen = [distinct[k % len(distinct)] for k in range(n)]
     centres = problem.canonical(np.array([problem.nuisance_estimate(r.x) for r in chosen]))

@@ -259,6 +259,8 @@ def _check_resume(run: RunDirectory, stored: dict | None) -> None:
         raise ValidationError(
             "--resume", str(run.path), "the same inputs, configuration and code as the stored run", "; ".join(diffs)
         )
+    if run.checkpoints.exists() and not run.checkpoints.is_dir():
+        raise ValidationError("--resume", str(run.checkpoints), f"a folder of checkpoints ({CHECKPOINTS}/ is a file)")
     run.resumed, run.unit = stored_progress(run.checkpoints, run.manifest["engine"], _n_runs(run.manifest))
 
 

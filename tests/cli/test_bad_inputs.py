@@ -135,7 +135,22 @@ def test_point_counts(tmp_path, capsys, first_row, pattern):
 
 def test_point_counts_without_a_reference_point(tmp_path, capsys):
     path = _counts(tmp_path, ["1,0,0,3", "2,0,0,1", "3,0,0,1"])
-    _refused(capsys, ["stereology", "fractions", path], r"counts: expected a positive reference count")
+    _refused(capsys, ["stereology", "fractions", path], r"counts.csv column smc_points: expected a point hit, got "
+             r"'0 points in every section' \(leave out the column")  # fmt: skip
+
+
+def test_point_counts_with_one_empty_component(tmp_path, capsys):
+    """One component never hit: NaN tables and RuntimeWarnings with exit 0 before (issue 34)."""
+    path = _counts(tmp_path, ["1,3,0,1", "2,3,0,1", "3,2,0,1", "4,2,0,1"])
+    _refused(capsys, ["stereology", "fractions", path], r"counts.csv column ecm_points: expected a point hit")
+
+
+def test_replicates_need_two_bootstrap_draws(tmp_path, capsys):
+    out = tmp_path / "R.csv"
+    _refused(capsys, ["stereology", "replicates", str(DATA / "stereology_counts.csv"),
+                      str(DATA / "stereology_lines.csv"), "--n-boot", "1", "--out", str(out)],
+             r"--n-boot: expected at least 2 bootstrap replicates")  # fmt: skip
+    assert not out.exists()
 
 
 def test_rose_top_names_its_option(capsys):
@@ -194,3 +209,40 @@ def test_ctrl_c_prints_one_line_and_how_to_resume(tmp_path, capsys, monkeypatch)
     err = capsys.readouterr().err
     assert code == 130 and err.count("\n") == 1 and "Traceback" not in err
     assert "interrupted; what was checkpointed in" in err and "--resume continues it" in err
+
+
+def test_messages_that_name_what_to_act_on(t1, tmp_path, capsys):
+    """Issue 34's probe: a binary TOML, a folder for a file, an empty data file name, a negative seed."""
+    (tmp_path / "bin.toml").write_bytes(bytes(range(128, 256)))
+    _refused(
+        capsys,
+        ["simulate", str(tmp_path / "bin.toml")],
+        r"experiment bin.toml: expected UTF-8 text \(a TOML file; is this a binary file\?\), got 'byte 0x80",
+    )
+    _refused(capsys, ["simulate", str(tmp_path)], r"experiment file: expected a TOML file \(this is a folder\)")
+    _edit(t1 / "T1.toml", 'file = "T1.csv"', 'file = ""')
+    _refused(capsys, ["simulate", str(t1 / "T1.toml")], r"table file: expected a CSV file \(this is a folder\)")
+    with pytest.raises(SystemExit) as exit_:  # argparse's own refusal: usage line, then the one-line error
+        main(["fit", str(DATA / "T1.toml"), "--out", str(tmp_path / "r"), "--seed", "-1"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --seed: expected an integer >= 0, got '-1'" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    "rows, pattern",
+    [
+        (
+            "[[1, 0], [0, 1, 0], [0, 0, 1]]",
+            r"\[tissue\] directions row 1: expected three numbers \[x, y, z\], got \[1, 0\]",
+        ),
+        (
+            "[[1, 0, 0], [nan, 1, 0], [0, 0, 1]]",
+            r"\[tissue\] directions row 2: expected finite numbers, got \[nan, 1, 0\]",
+        ),
+    ],
+)
+def test_direction_rows_are_named_by_number(t1, capsys, rows, pattern):
+    """A short row gave numpy's 'inhomogeneous shape'; a NaN 'a list of [x, y, z] rows' (issue 34)."""
+    _edit(t1 / "T1.toml", "[data]", f"[tissue]\ndirections = {rows}\n\n[data]")
+    _refused(capsys, ["simulate", str(t1 / "T1.toml")], pattern)

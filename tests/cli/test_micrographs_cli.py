@@ -84,18 +84,50 @@ def test_pixel_size_from_tiff_metadata(phantom_dir, tmp_path, capsys):
 
 
 def test_metadata_comes_from_the_first_section_in_reading_order(phantom_dir, tmp_path):
-    """A folder read s2, s10 (natural order, as the reader does): the pixel size is s2's, not the plain sort's s10."""
+    """A folder read s2, s10 (natural order, as the reader does): the pixel size is s2's (s10 states none, so the
+    plain sort's first would give none); sections stating different sizes are refused (issue 34: the first was used)."""
+    from bayestissue._validation import ValidationError
     from bayestissue.cli.micrographs import _pixel_size
     from bayestissue.io.micrographs import section_files
 
     images, _ = read_micrographs(phantom_dir)
     folder = tmp_path / "tifs"
     folder.mkdir()
-    for name, px_per_cm in (("s2.tif", 2e4), ("s10.tif", 1e4)):
-        tifffile.imwrite(folder / name, images[0], photometric="rgb", resolution=(px_per_cm, px_per_cm),
-                         resolutionunit="CENTIMETER")  # fmt: skip
+    tifffile.imwrite(
+        folder / "s2.tif", images[0], photometric="rgb", resolution=(2e4, 2e4), resolutionunit="CENTIMETER"
+    )
+    tifffile.imwrite(folder / "s10.tif", images[0], photometric="rgb")
     assert [p.name for p in section_files(folder)] == ["s2.tif", "s10.tif"]
     assert _pixel_size(folder, None) == pytest.approx(0.5)
+    tifffile.imwrite(
+        folder / "s10.tif", images[0], photometric="rgb", resolution=(1e4, 1e4), resolutionunit="CENTIMETER"
+    )
+    with pytest.raises(ValidationError, match=r"s10.tif pixel size: expected the 0.5 um of s2.tif .*got '1 um'"):
+        _pixel_size(folder, None)
+
+
+@pytest.mark.parametrize(
+    "resolution, unit, expected",
+    [
+        ((300.0, 300.0), "INCH", None),  # a print default, not 84.7 um pixels
+        ((96.0, 96.0), "INCH", None),  # a screen default
+        ((1e4, 2e4), "CENTIMETER", r"pixel size: expected square pixels .*got '1 um \(X\) x 0.5 um \(Y\)'"),
+        ((1e-3, 1e-3), "CENTIMETER", r"pixel size: expected a pixel size in \[0.0001, 1000\] um, got '1e\+07 um'"),
+    ],
+)
+def test_implausible_or_default_resolutions(phantom_dir, tmp_path, resolution, unit, expected):
+    """Writer defaults other than 72 dpi, anisotropic pixels and absurd sizes (1e7 um tried to allocate 10 PiB)."""
+    from bayestissue._validation import ValidationError
+    from bayestissue.io.micrographs import tiff_pixel_size_um
+
+    images, _ = read_micrographs(phantom_dir)
+    tif = tmp_path / "s.tif"
+    tifffile.imwrite(tif, images[0], photometric="rgb", resolution=resolution, resolutionunit=unit)
+    if expected is None:
+        assert tiff_pixel_size_um(tif) is None
+    else:
+        with pytest.raises(ValidationError, match=expected):
+            tiff_pixel_size_um(tif)
 
 
 def test_jpeg_sections_are_read(phantom_dir, tmp_path):
@@ -267,3 +299,13 @@ def test_io_and_library_errors(tmp_path, phantom_dir, capsys):
                "--overlay-section", "99"])  # fmt: skip
     assert rc == 2
     assert "overlay_section: expected a section index in [0, 5]" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["phantom", "analyse"])
+def test_zero_section_thickness_is_refused_before_any_work(tmp_path, capsys, command):
+    where = ["phantom", str(tmp_path / "ph")] if command == "phantom" else ["analyse", str(tmp_path), "--out",
+                                                                              str(tmp_path / "o")]  # fmt: skip
+    assert main(["micrographs", *where, "--section-thickness-um", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--section-thickness-um: expected" in err and err.count("\n") == 1
+    assert not (tmp_path / "ph").exists()

@@ -57,7 +57,12 @@ def _with(table, key, value):
             5.0,
             r"\[protocol\] key: expected one of \['kind', 'mode', 'ratio', 'stress_kpa'\], got 'hold_s'",
         ),
-        ("tissue", "directions", [[0, "y", 0]], r"\[tissue\] directions: expected a list of \[x, y, z\] rows"),
+        (
+            "tissue",
+            "directions",
+            [[0, "y", 0]],
+            r"\[tissue\] directions row 1: expected finite numbers, got \[0, .y., 0\]",
+        ),
         ("tissue", "phi_fibres", 0.6, r"\[tissue\] phi_fibres: expected a list of numbers, got 0.6"),
         ("data", "file", 3, r"\[data\] file: expected a string, got 3"),
     ],

@@ -64,3 +64,16 @@ def test_one_material_per_problem(tmp_path):
         pytest.skip("the bundled files share a preset")
     with pytest.raises(ValidationError, match="one preset"):
         build_problem([a, b], config_from_mapping(None))
+
+
+def test_a_data_step_longer_than_the_duration_is_refused(tmp_path):
+    """One row (t = 0) was simulated before (issue 34)."""
+    from bayestissue._validation import ValidationError
+
+    (tmp_path / "x.toml").write_text(
+        'name = "X"\n[specimen]\nlength_x_mm = 10\nlength_y_mm = 1\nlength_z_mm = 1\n'
+        '[protocol]\nkind = "stretch_ramp"\nstretch = 1.05\nramp_s = 10\n[simulation]\ndt_s = 1\n'
+        "[data]\nduration_s = 20\nstep_s = 30\n"
+    )
+    with pytest.raises(ValidationError, match=r"data.step_s: expected a step at most data.duration_s \(20 s\), got 30"):
+        load_experiment(tmp_path / "x.toml")

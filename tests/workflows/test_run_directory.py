@@ -103,3 +103,13 @@ def test_interrupted_run_is_explained_and_corrupt_checkpoint_named(tmp_path):
         (run.checkpoints / "ensemble_1.h5").write_bytes(b"")
     with pytest.raises(ValidationError, match=r"checkpoint .*ensemble_1.h5: .*delete this file .* --overwrite"):
         open_run_directory(out, m, resume=True).__enter__()
+
+
+def test_resume_with_checkpoints_that_are_a_file_is_refused(tmp_path):
+    out = tmp_path / "run"
+    m = {"engine": "emcee", "config": {"sampler": {"n_ensembles": 2}}}
+    with open_run_directory(out, m):
+        pass
+    (out / "checkpoints").write_text("not a folder")
+    with pytest.raises(ValidationError, match=r"--resume: expected a folder of checkpoints \(checkpoints/ is a file\)"):
+        open_run_directory(out, m, resume=True).__enter__()

@@ -248,3 +248,20 @@ def test_replicate_task_uses_the_calibration_sampler(t2):
     assert np.all(np.isfinite(ramp.loglik))
     with pytest.raises(ValidationError, match="coordinates"):
         run_task(CalibrationTask((exp,), coordinates="polar", **kw))
+
+
+def test_warm_start_without_a_finite_cost_is_refused_by_name():
+    """Every least-squares fit failed (NaN costs: e.g. a creep test whose displacements no parameter set in the boxes
+    reaches): one message naming the experiments, not a ZeroDivisionError (issue 34)."""
+    from types import SimpleNamespace
+
+    from bayestissue._validation import ValidationError
+    from bayestissue.workflows import config_from_mapping
+    from bayestissue.workflows.calibration import _ensemble_centres
+    from tests.inference.linear_model import linear_gaussian_problem
+
+    problem, _ = linear_gaussian_problem()
+    fits = [SimpleNamespace(cost=float("nan"), s2=float("nan"), x=np.zeros(problem.ndim), cov=None)] * 3
+    with pytest.raises(ValidationError, match=r"least-squares warm start on .*: expected a parameter set in the boxes"
+                                              r".*got '3 fits, none with a finite cost'"):  # fmt: skip
+        _ensemble_centres(problem, fits, fits[0], config_from_mapping(None))
