@@ -2,9 +2,9 @@
 
 Stages run in order, each a script in studies/ with a ``main(argv)``; the time of each is printed at the end.
 ``--quick`` is a smoke run (CI-sized chains, about 2 minutes) and writes into its own folder, never over the committed
-results; ``--full`` publication-quality chains; the default aims at 20 minutes on a 2-core machine and takes about
-20 (measured on 2026-11-25: 1217 s of stages, 684 s of them calibration, 160 s the controls of the T1-vs-T2 answer
-and 97 s the measured-data stage).
+results; ``--full`` publication-quality chains; the default takes about 30 minutes on an idle 2-core machine
+(2026-11-25, before the laws stage: 1217 s of stages, 684 s of them calibration) and took 3002 s on 2026-11-27 on a
+shared machine running other fits beside it (calibration 1073 s, controls 416 s, T1 vs T2 368 s, laws 779 s).
 
     python studies/run_study.py [--quick | --full] [--only STAGE ...]   # STAGE: a script or a stage name
 """

@@ -39,7 +39,8 @@ def test_the_report_opens_with_the_answers(records):
         assert question in joined
     assert "**yes** | tension Q = 40897 on 11 df" in joined
     assert "**partial**: fibre angle + specimen stiffness" in joined
-    assert sum(len(line.split()) for line in lines) < 5000  # the report before the template: 7 500 words
+    # the report before the template: 7 500 words; 4 517 after it, 5 452 with the laws section (issue 32)
+    assert sum(len(line.split()) for line in lines) < 6000
 
 
 def test_verdicts_follow_the_records(records):
