@@ -27,13 +27,13 @@ import numpy as np  # noqa: E402
 
 from bayestissue.analyses.law_choice import (  # noqa: E402
     MATERIALS,
-    band_share,
     bayes_factors,
     relative_rms,
     with_matrix,
 )
 from bayestissue.analyses.records import FILES, LawChoiceRecord, LawFit, MaterialLaws  # noqa: E402
 from bayestissue.analyses.verdicts import evidence_strength  # noqa: E402
+from bayestissue.identifiability.compare import coverage  # noqa: E402
 from bayestissue.io.records import write_record  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.laws import ModePanel, plot_law_choice  # noqa: E402
@@ -126,7 +126,7 @@ def calibrate(material, law, experiments, fitted: int, settings, rng):
     for mode, e, c, p in zip(modes, exps, curves, pred, strict=True):
         mid, lo, hi = np.quantile(c, [0.5, 0.05, 0.95], axis=0)
         bands[mode] = (mid, lo, hi)
-        shares[mode] = band_share(p, e.observed)
+        shares[mode] = coverage(e.observed, p)
         rms[mode] = relative_rms(mid, e.observed)
     fit = LawFit(
         law=law.label, fitted_on=list(modes[:fitted]), names=names,

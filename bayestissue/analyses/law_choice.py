@@ -6,7 +6,8 @@ tension, compression and simple shear. A *candidate* is a matrix law of the regi
 (:mod:`bayestissue.mechanics.laws`). Two questions per material and law:
 
 * **Transfer**: calibrated on the first mode alone, how well does the law predict the others? Measured by the share of
-  each other curve inside the 90 % posterior predictive band (:func:`band_share`; the band is that of a new
+  each other curve inside the 90 % posterior predictive band
+  (:func:`~bayestissue.identifiability.compare.coverage`; the band is that of a new
   measurement: the model curve at each posterior draw plus Gaussian noise with the draw's noise sd of the calibrated
   mode, the only noise the calibration knows) and by the root-mean-square error of the median prediction relative to
   the curve's range.
@@ -35,7 +36,6 @@ __all__ = [
     "MATERIALS",
     "Material",
     "RUBBER_LAWS",
-    "band_share",
     "bayes_factors",
     "relative_rms",
     "with_matrix",
@@ -114,15 +114,6 @@ MATERIALS = (
 def with_matrix(experiment: Experiment, candidate: Candidate) -> Experiment:
     """``experiment`` with its tissue's matrix law replaced by the candidate's."""
     return replace(experiment, tissue=replace(experiment.tissue, matrix=candidate.law()))
-
-
-def band_share(draws, observed, level: float = 0.9) -> float:
-    """Share of the ``observed`` points (n_obs,) inside the central ``level`` band of the predictive ``draws``
-    (n_draws, n_obs), pointwise."""
-    draws = np.asarray(draws, dtype=float)
-    lo, hi = np.quantile(draws, [(1 - level) / 2, (1 + level) / 2], axis=0)
-    obs = np.asarray(observed, dtype=float)
-    return float(np.mean((obs >= lo) & (obs <= hi)))
 
 
 def relative_rms(prediction, observed) -> float:

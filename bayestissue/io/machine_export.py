@@ -129,12 +129,17 @@ def _role(name: str) -> str | None:
     return next((role for role, names in COLUMNS.items() if n in names), None)
 
 
+def _is_header(cells: list[str]) -> bool:
+    """A row naming a time, an extension and a load column (the data's header)."""
+    return {"time", "length", "force"} <= {_role(c) for c in cells}
+
+
 def _delimiter(lines: list[str]) -> str:
     """The separator under which a header row (time, extension, load) appears among the first lines: tab, then
     semicolon, then comma (a file with decimal commas has more commas than semicolons); else the most frequent."""
     for d in ("\t", ";", ","):
         for line in lines[:500]:
-            if d in line and {"time", "length", "force"} <= {_role(c) for c in _cells(line, d)}:
+            if d in line and _is_header(_cells(line, d)):
                 return d
     return max((",", ";", "\t"), key=lambda d: sum(line.count(d) for line in lines[:40]))
 
@@ -156,7 +161,7 @@ def _metadata(lines, delimiter, name):
         if not line.strip():
             continue
         cells = _cells(line, delimiter)
-        if {"time", "length", "force"} <= {_role(c) for c in cells}:
+        if _is_header(cells):
             return meta, skipped, i
         if len(cells) == 1 and ":" in cells[0]:
             cells = [s.strip() for s in cells[0].rsplit(":", 1)]

@@ -144,13 +144,8 @@ def _tensions(e, p, lay, M, eps0, cf, qf, tau_f, H):
     nb_f = lay[7]
     for k in range(lay[8]):
         off = fibre_offset(lay, k)
-        if lay[4] == 0:  # the paper's linear fibre on M_k (fast path, as in the composite's stress)
-            eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
-            eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
-            sig = p[off] * (eps - eps0[k])
-        else:
-            eps = structure_and_strain(lay, p, off, M[k], e, H)
-            sig = fibre_stress(lay[4], lay[6], eps - eps0[k], p, off)[0]
+        eps = structure_and_strain(lay, p, off, M[k], e, H)
+        sig = p[off] * (eps - eps0[k]) if lay[4] == 0 else fibre_stress(lay[4], lay[6], eps - eps0[k], p, off)[0]
         if nb_f == 0:
             tau_f[k, 0] = max(0.0, sig)
         for b in range(nb_f):

@@ -8,11 +8,11 @@ import pytest
 from bayestissue.analyses.law_choice import (
     MATERIALS,
     OGDEN,
-    band_share,
     bayes_factors,
     relative_rms,
     with_matrix,
 )
+from bayestissue.identifiability.compare import coverage
 from bayestissue.mechanics import load_experiment
 from bayestissue.mechanics.forward import ForwardModel
 
@@ -20,14 +20,15 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_band_share_counts_points_inside_the_pointwise_band():
+    """The transfer's band share is identifiability.compare.coverage on the noisy predictive draws."""
     rng = np.random.default_rng(0)
     draws = rng.standard_normal((20000, 4))
     observed = np.array([0.0, 1.6, 1.7, -3.0])  # inside, inside (q95 = 1.645), outside, outside
     lo, hi = np.quantile(draws, [0.05, 0.95], axis=0)
     expected = np.mean((observed >= lo) & (observed <= hi))
-    assert band_share(draws, observed) == pytest.approx(expected)
-    assert band_share(draws, observed) == pytest.approx(0.5)
-    assert band_share(draws, np.zeros(4), level=0.5) == 1.0
+    assert coverage(observed, draws) == pytest.approx(expected)
+    assert coverage(observed, draws) == pytest.approx(0.5)
+    assert coverage(np.zeros(4), draws, level=0.5) == 1.0
 
 
 def test_relative_rms_is_over_the_curves_range():
