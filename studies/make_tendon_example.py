@@ -86,12 +86,14 @@ def main() -> int:
             "truth": ", ".join(f"{n}={TRUTH[n]:g}" for n in names)}  # fmt: skip
     write_table(OUT / f"{NAME}.csv", {"time_s": t, "displacement_mm": u, "force_mN": f}, meta=meta)
     toml.write_text(experiment_toml(f"{NAME}.csv"))
-    one = experiment_toml(f"{NAME}.csv").replace("fibre_branches = 2", "fibre_branches = 1")
-    one = one.replace(f'name = "{NAME}"', f'name = "{NAME}_one_branch"')
-    (OUT / f"{NAME}_one_branch.toml").write_text(one.replace("# SYNTHETIC:", "# SYNTHETIC (the same data, a "
-                                                             "model with ONE relaxation branch):"))  # fmt: skip
+    for n, word in ((1, "one"), (3, "three")):  # the same data under other branch counts (the evidence decides)
+        other = experiment_toml(f"{NAME}.csv").replace("fibre_branches = 2", f"fibre_branches = {n}")
+        other = other.replace(f'name = "{NAME}"', f'name = "{NAME}_{word}_branch{"es" if n > 1 else ""}"')
+        path = OUT / f"{NAME}_{word}_branch{'es' if n > 1 else ''}.toml"
+        path.write_text(other.replace("# SYNTHETIC:", f"# SYNTHETIC (the same data, a model with {word.upper()} "
+                                      f"relaxation branch{'es' if n > 1 else ''}):"))  # fmt: skip
+        load_experiment(path)
     exp = load_experiment(toml)
-    load_experiment(OUT / f"{NAME}_one_branch.toml")
     peak = float(np.max(f))
     print(f"wrote {toml} and {NAME}.csv: {t.size} rows, peak {peak:.0f} mN, end of hold {f[-1] / peak:.3f} of peak")
     return 0

@@ -118,16 +118,33 @@ def _fractions(args) -> int:
     return 0
 
 
+#: Fewest traced segments for the three-family Watson mixture: it has 14 free parameters (per family an axis, 2, and
+#: a concentration; weights summing to one), so fewer segments than 15 cannot determine it.
+MIN_SEGMENTS = 15
+
+
+def _mixture_lines(path):
+    """The line system of ``path``, refused in one line if it has too few segments for the three-family mixture."""
+    from bayestissue._validation import ValidationError
+    from bayestissue.stereology import LineSystem
+
+    ls = LineSystem.from_file(path)
+    if len(ls.cell) < MIN_SEGMENTS:
+        raise ValidationError(f"{path} rows", f"{len(ls.cell)} segment(s) of {ls.n_cells} cell(s)",
+                              f"at least {MIN_SEGMENTS} traced segments for the three fibre families' Watson mixture "
+                              "(14 free parameters)")  # fmt: skip
+    return ls
+
+
 def _lines(args) -> int:
     from bayestissue.stereology import (
-        LineSystem,
         azimuth_elevation,
         fit_watson_mixture,
         orientation_tensor,
         principal_axes,
     )
 
-    ls = LineSystem.from_file(args.lines)
+    ls = _mixture_lines(args.lines)
     print(f"{ls.n_cells} cells, {len(ls.cell)} segments, L = {ls.total_length_um:.1f} um")
     if ls.volume_um3 is not None:
         print(f"V = {ls.volume_um3:.1f} um^3, L_V = {ls.length_density():.5f} um^-2 (paper eq. 2)")
@@ -180,13 +197,13 @@ def _rose(args) -> int:
 def _replicates(args) -> int:
     from bayestissue._validation import ValidationError
     from bayestissue.io.stereology_files import read_line_system, read_point_counts, write_replicates
-    from bayestissue.stereology import LineSystem, PointCounts, stereology_replicates
+    from bayestissue.stereology import PointCounts, stereology_replicates
 
     if args.n_boot < 2:
         raise ValidationError("--n-boot", args.n_boot, "at least 2 bootstrap replicates (a spread needs two)")
 
     pc = PointCounts.from_file(args.counts)
-    ls = LineSystem.from_file(args.lines)
+    ls = _mixture_lines(args.lines)
     from bayestissue.cli import progress_bar
 
     with progress_bar(args, total=args.n_boot, unit="replicate", desc="direction bootstrap") as bar:

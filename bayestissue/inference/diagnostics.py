@@ -22,7 +22,8 @@
 
 Verdict (:func:`assess_convergence`): :math:`\\hat R < 1.01`, bulk and tail ESS :math:`\\ge 400` for
 every sampled parameter, and every ensemble at least :math:`50\\hat\\tau` long with a stable
-:math:`\\hat\\tau`.
+:math:`\\hat\\tau` (changed by < 1 % over the last check, or the ensemble 100 tau long:
+:func:`bayestissue.inference.sampling.phases._length_ok`).
 """
 
 from __future__ import annotations

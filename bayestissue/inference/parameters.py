@@ -38,6 +38,16 @@ import numpy as np
 from scipy.special import expit, log_expit, logit
 
 from bayestissue._validation import ValidationError, check_finite
+from bayestissue.inference.ordering import (
+    OrderedGroup,
+    canonical,
+    groups_in_force,
+    in_order,
+    order_index,
+    order_statistics,
+    relabelling,
+    sort_keys,
+)
 from bayestissue.inference.priors import PRIORS, BoxPrior, make_prior
 
 __all__ = ["ParameterSpec", "ParameterSet", "SCALES"]
@@ -126,11 +136,16 @@ class ParameterSet:
     ``theta`` always means the *sampled* parameters in their natural units, shape ``(n_sets,
     n_sampled)`` (or ``(n_sampled,)``); :meth:`expand` inserts the fixed values to give the full
     vector in the order of :attr:`specs`. ``fixed_inputs`` records inputs that are not parameters
-    (volume fractions, fibre directions, K, eps0 ...) for the provenance of the results.
+    (volume fractions, fibre directions, K, eps0 ...) for the provenance of the results. ``ordered`` holds the
+    label-switching groups (:class:`OrderedGroup`) whose prior is restricted to one labelling; a group applies to its
+    sampled terms (a term with a fixed or tied parameter leaves it), and only while their keys (and, for an
+    exchangeable group, every parameter of a term) have the same box and prior: a group that loses that, or keeps
+    fewer than two terms, is dropped (:attr:`ordered` then lists only the groups in force).
     """
 
     specs: tuple[ParameterSpec, ...]
     fixed_inputs: Mapping = field(default_factory=dict)
+    ordered: tuple[OrderedGroup, ...] = ()
 
     def __post_init__(self):
         specs = tuple(self.specs)
@@ -153,6 +168,7 @@ class ParameterSet:
                 raise ValidationError(f"{s.name} tied_to", s.tied_to, f"a parameter in the same unit ({s.unit})")
         object.__setattr__(self, "specs", specs)
         object.__setattr__(self, "fixed_inputs", dict(self.fixed_inputs))
+        object.__setattr__(self, "ordered", groups_in_force(self.ordered, by_name))
 
     # ---- bookkeeping
     # -------------------------------------------------------------------------------
@@ -182,6 +198,15 @@ class ParameterSet:
     @property
     def n_sampled(self) -> int:
         return len(self.sampled)
+
+    @property
+    def ordered_text(self) -> str:
+        """The orderings in force as ``"alpha1 > alpha2; beta1 > beta1_2"`` (``"none"``), for provenance."""
+        return "; ".join(g.text for g in self.ordered) or "none"
+
+    @cached_property
+    def _order_index(self) -> tuple[tuple[np.ndarray, np.ndarray | None], ...]:
+        return order_index(self.ordered, self.sampled_names)
 
     @cached_property
     def _lo(self) -> np.ndarray:
@@ -305,7 +330,7 @@ class ParameterSet:
             new.append(replace(s, **kw) if kw else s)
         inputs = dict(self.fixed_inputs)
         inputs.update(fixed_inputs or {})
-        return ParameterSet(tuple(new), inputs)
+        return ParameterSet(tuple(new), inputs, self.ordered)
 
     # ---- vectors
     # -----------------------------------------------------------------------------------
@@ -402,14 +427,25 @@ class ParameterSet:
         with np.errstate(divide="ignore", invalid="ignore"):
             logx = np.log(np.where(is_lu, np.abs(theta), 1.0))
         total = np.sum(const - np.where(is_lu, logx, 0.0), axis=-1)
-        return np.where(inside, total, -np.inf)
+        for keys, _ in self._order_index:  # one labelling, density n! there (OrderedGroup)
+            total = total + math.lgamma(keys.size + 1)
+        return np.where(inside & self.in_order(theta), total, -np.inf)
+
+    def in_order(self, theta) -> np.ndarray:
+        """Whether the keys of every ordered group decrease strictly (:class:`OrderedGroup`); ``theta.shape[:-1]``."""
+        return in_order(self._check_theta(theta), self._order_index)
 
     def from_prior_quantiles(self, q) -> np.ndarray:
         """The prior transform of nested sampling: :math:`x_i = F_i^{-1}(q_i)`, ``q`` ``(..., n_sampled)`` in
         :math:`[0, 1]`, with :math:`F_i` the CDF of parameter :math:`i`'s box prior (uniform: :math:`a + q(b - a)`;
         log-uniform: :math:`a (b/a)^q`). Uniform ``q`` gives exact prior draws; this is the prior that
-        :meth:`log_prior` evaluates, whatever the parameter's ``scale``."""
-        q = self._check_theta(q)
+        :meth:`log_prior` evaluates, whatever the parameter's ``scale``.
+
+        The keys of an ordered group (:class:`OrderedGroup`) go through the order statistics of ``n`` uniforms first,
+        a bijection of the unit cube onto the ordered region: :math:`v_1 = q_1^{1/n}`, :math:`v_k = v_{k-1}
+        q_k^{1/(n-k+1)}` (the largest of ``n`` uniforms has CDF :math:`v^n`; given it, the rest are ``n - 1``
+        uniforms below it), so that the nested sampler sees one labelling, not ``n!`` copies of each mode."""
+        q = order_statistics(self._check_theta(q), self._order_index)
         is_lu, _ = self._prior_consts
         lo, hi = self._lo, self._hi
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -420,7 +456,18 @@ class ParameterSet:
     def sample_prior(self, n: int, *, rng=None) -> np.ndarray:
         """``n`` independent prior draws of the sampled parameters, shape ``(n, n_sampled)``."""
         rng = np.random.default_rng(rng)
-        return np.column_stack([s.prior_dist.sample(n, rng=rng) for s in self.sampled])
+        draws = np.column_stack([s.prior_dist.sample(n, rng=rng) for s in self.sampled])
+        return sort_keys(draws, self._order_index)
+
+    def relabelling(self, theta) -> np.ndarray:
+        """The positions ``perm`` with ``canonical(theta) == theta[perm]`` for one point ``theta`` (n_sampled,): how
+        to carry quantities attached to each parameter (intervals, flags) into the ordered labelling."""
+        return relabelling(self._check_theta(theta), self._order_index)
+
+    def canonical(self, theta) -> np.ndarray:
+        """``theta`` relabelled into the ordered region: the terms of each exchangeable group permuted so that their
+        keys decrease (a point of another labelling has the same likelihood); other groups are left as they are."""
+        return canonical(self._check_theta(theta), self._order_index)
 
     def describe(self) -> list[dict]:
         """One dict per parameter (name, unit, bounds, prior, scale, value, fixed) for

@@ -150,7 +150,7 @@ class CalibrationProblem:
             self._nuis_slices.append(slice(start, start + len(specs)))
             start += len(specs)
             nuisance.extend(specs)
-        self.parameters = ParameterSet(material.specs + tuple(nuisance), material.fixed_inputs)
+        self.parameters = ParameterSet(material.specs + tuple(nuisance), material.fixed_inputs, material.ordered)
         self.exchangeable = None
         if exchangeable:
             groups = [list(g) for g in exchangeable]
@@ -280,8 +280,11 @@ class CalibrationProblem:
 
     def canonical(self, theta) -> np.ndarray:
         """Swap the exchangeable groups where needed so that the first group's leading parameter is
-        not smaller than the second's (identity without ``exchangeable``)."""
+        not smaller than the second's (identity without ``exchangeable``), and relabel the terms of the parameters'
+        exchangeable ordered groups (:meth:`ParameterSet.canonical`)."""
         theta = np.array(theta, dtype=float, copy=True)
+        if self.parameters.ordered:
+            theta = self.parameters.canonical(theta)
         if self.exchangeable is None:
             return theta
         t2 = np.atleast_2d(theta)

@@ -88,11 +88,11 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
     cols["wald_lower_90"], cols["wald_upper_90"] = wl, wu
     active = np.zeros(n, dtype=int)
     active[:m] = least_squares.active
-    perm = np.arange(n)
-    if getattr(problem, "exchangeable", None) is not None:  # report the LS optimum in the same labelling
+    perm = problem.parameters.relabelling(ls)  # report the LS optimum in the draws' labelling
+    if getattr(problem, "exchangeable", None) is not None:
         a_idx, b_idx = problem.exchangeable
-        if ls[a_idx[0]] < ls[b_idx[0]]:
-            perm[a_idx], perm[b_idx] = b_idx, a_idx
+        if ls[perm][a_idx[0]] < ls[perm][b_idx[0]]:
+            perm[a_idx], perm[b_idx] = perm[b_idx].copy(), perm[a_idx].copy()
     ls, wl, wu, active = ls[perm], wl[perm], wu[perm], active[perm]
     cols["ls_estimate"] = ls
     cols["wald_lower_90"], cols["wald_upper_90"] = wl, wu
@@ -106,6 +106,8 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
         "least_squares_cost": f"{least_squares.cost:.6g}",
         "least_squares_iterations": least_squares.nit,
     }
+    if problem.material.ordered:  # the labelling the prior keeps (inference.ordering.OrderedGroup)
+        meta["parameters_ordered"] = problem.material.ordered_text
     if sample is not None:
         flat = sample.flat()
         q05, q50, q95 = np.quantile(flat, [0.05, 0.5, 0.95], axis=0)

@@ -95,6 +95,10 @@ def resample_by_arc_length(t, u, f, n: int) -> tuple[np.ndarray, float]:
     return keep, float(change)
 
 
+#: Fewest steps a resampled curve keeps: a ``--step-s`` over half the test leaves no curve to fit and is refused.
+MIN_RESAMPLED = 2
+
+
 def prepare(export, *, until_s=None, drop: float | None = DROP, tare: bool = False, step_s=None) -> tuple[dict, list]:
     """Tare, cut and resample ``export`` (module docstring). Returns the tidy columns ``time_s``,
     ``displacement_mm``, ``force_mN`` and the list of what was done (one sentence each)."""
@@ -128,6 +132,9 @@ def prepare(export, *, until_s=None, drop: float | None = DROP, tare: bool = Fal
     if t.size < 2:
         raise ValidationError(f"{name} rows left after trimming", t.size, "at least 2")
     if step_s is not None:
+        if step_s > t[-1] / MIN_RESAMPLED:
+            raise ValidationError("--step-s", step_s, f"a step of at most {t[-1] / MIN_RESAMPLED:.4g} s ({name} keeps "
+                                  f"{t[-1]:.4g} s: at least {MIN_RESAMPLED} steps)")  # fmt: skip
         n = max(int(np.ceil(t[-1] / step_s)) + 1, 3)
         idx, change = resample_by_arc_length(t, u, f, n)
         if idx.size < t.size:

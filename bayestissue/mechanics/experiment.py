@@ -164,6 +164,8 @@ class Experiment:
         if not isinstance(self.load_case, LoadCase):
             raise ValidationError("load_case", type(self.load_case).__name__, "a LoadCase")
         self.load_case.check_controls(self.controls)
+        if getattr(self.protocol, "stretch_2", None) is not None:
+            self.load_case.check_second_history()
         cols = {k: np.asarray(v, dtype=float) for k, v in dict(self.columns).items() if k not in _FIELDS}
         for name, v in cols.items():
             if v.shape != t.shape:
@@ -200,7 +202,8 @@ class Experiment:
     def prescribed(self) -> np.ndarray:
         """(n_steps + 1,) the driving history at the simulation steps: the nominal stress (kPa, 0 at t = 0) under
         force control, the stretch of the loaded face (1 at t = 0) under stretch control, the amount of shear (0 at
-        t = 0) under shear control."""
+        t = 0) under shear control; ``(n_steps + 1, 2)`` for a biaxial test whose second face has its own stretch
+        history (:class:`~bayestissue.mechanics.protocols.MeasuredStretchProtocol`)."""
         if self.controls == "force":
             return self.nominal_stress_kpa()
         if self.controls == "shear":
@@ -209,7 +212,12 @@ class Experiment:
             return g
         lam = np.asarray(self.protocol.stretch_at(self.step_time_s), dtype=float)
         lam[0] = 1.0
-        return lam
+        second = getattr(self.protocol, "stretch_2_at", lambda _: None)(self.step_time_s)
+        if second is None:
+            return lam
+        second = np.asarray(second, dtype=float)
+        second[0] = 1.0
+        return np.column_stack([lam, second])
 
     @property
     def channels(self) -> tuple[Channel, ...]:

@@ -30,7 +30,7 @@ PROTOCOL_KEYS = {
     "measured": ("kind", "mode", "ratio", "force_column"),
     "stretch_ramp": ("kind", "mode", "ratio", "stretch", "ramp_s"),
     "stretch_cycles": ("kind", "mode", "ratio", "stretch", "period_s"),
-    "measured_stretch": ("kind", "mode", "ratio", "stretch_column"),
+    "measured_stretch": ("kind", "mode", "ratio", "stretch_column", "stretch_2_column"),
     "shear_ramp": ("kind", "mode", "shear", "ramp_s"),
     "measured_shear": ("kind", "mode", "shear_column"),
 }
@@ -68,6 +68,9 @@ TABLES: dict[str, dict[str, Key]] = {
         "period_s": Key("float", "required (stretch_cycles)", "period of a loading-unloading cycle (s)", **_POSITIVE),
         "stretch_column": Key("text", '"stretch"', "the data file's stretch column (measured_stretch; without it, "
                               "displacement_mm / length_x_mm)"),
+        "stretch_2_column": Key("text", '"stretch_2"', "biaxial: the data file's column of the second face's stretch, "
+                                "prescribed independently of the first (measured_stretch with mode = 'biaxial'; "
+                                "without the column, the ratio applies)"),
         "shear": Key("float", "required (shear_ramp)", "amount of shear gamma reached by the ramp"),
         "shear_column": Key("text", '"shear"', "the data file's amount-of-shear column (measured_shear)"),
     },
@@ -148,7 +151,8 @@ def experiment_markdown() -> str:
         "measured_stretch protocol without a stretch column), `force_mN` (the force on the loaded face: the load "
         "of a measured protocol, observed under stretch control), `stretch` (the load of a measured_stretch "
         "protocol), `nominal_stress_kpa` (observed under stretch control where the data give no force); for the "
-        "second loaded face of a biaxial test `force_2_mN`, `nominal_stress_2_kpa`, `displacement_2_mm`; for simple "
+        "second loaded face of a biaxial test `force_2_mN`, `nominal_stress_2_kpa`, `displacement_2_mm` and "
+        "`stretch_2` (its own stretch history, for tests whose two stretches are not proportional); for simple "
         "shear `shear` (the load of a measured_shear protocol) and `shear_stress_kpa` or `shear_force_mN` "
         "(observed).",
     ]

@@ -113,7 +113,7 @@ class ForwardModel:
 
     def _run(self, p2, full: bool, want_sens: bool):
         """One kernel run: ``(out, ok, strain, tension, iterations, dout)`` on the step grid."""
-        n_sets, n_t, nf, n_ch = p2.shape[0], self.load.size, self.experiment.tissue.n_fibres, len(self.channels)
+        n_sets, n_t, nf, n_ch = p2.shape[0], self.load.shape[0], self.experiment.tissue.n_fibres, len(self.channels)
         out = np.empty((n_sets, n_t, n_ch))
         ok = np.empty(n_sets, dtype=np.bool_)
         strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
@@ -137,7 +137,7 @@ class ForwardModel:
         p = check_parameters(params, self.specs)
         single = p.ndim == 1
         p2 = np.ascontiguousarray(np.atleast_2d(p))
-        n_sets, n_t, nf, n_ch = p2.shape[0], self.load.size, self.experiment.tissue.n_fibres, len(self.channels)
+        n_sets, n_t, nf, n_ch = p2.shape[0], self.load.shape[0], self.experiment.tissue.n_fibres, len(self.channels)
         out = np.empty((n_sets, n_t, n_ch))
         ok = np.empty(n_sets, dtype=np.bool_)
         strain = np.empty((n_sets, n_t, 6) if full else (1, 1, 6))
@@ -168,12 +168,13 @@ class ForwardModel:
         """Both the displacement and the stress of face 1 at the steps, whichever the kernel computed."""
         e = self.experiment
         first = self.channels[0]
+        load = self.load if self.load.ndim == 1 else self.load[:, 0]  # face 1 of a two-history biaxial test
         if first.kind == 0:
             disp = out[:, :, 0]
-            stress = np.where(ok[:, None], self.load[None, :], np.nan)
+            stress = np.where(ok[:, None], load[None, :], np.nan)
         else:
             stress = out[:, :, 0]
-            lam = self.load if self.stretch_control else np.sqrt(1.0 + 2.0 * strain[:, :, 0])
+            lam = load if self.stretch_control else np.sqrt(1.0 + 2.0 * strain[:, :, 0])
             disp = np.where(ok[:, None], (lam - 1.0) * e.specimen_mm[0], np.nan)
         return SimulationResult(
             observed=obs,

@@ -21,7 +21,9 @@ that):
   wave, :math:`\lambda(t) = 1 + (\lambda_p - 1)(1 - |1 - 2 \{t / T\}|)`, :math:`\{\cdot\}` the fractional
   part);
 - ``measured_stretch``: a measured stretch history (the data file's ``stretch`` column, or ``displacement_mm``
-  divided by the specimen length), linearly interpolated.
+  divided by the specimen length), linearly interpolated; for a planar biaxial test (``mode = "biaxial"``) a second
+  column ``stretch_2`` prescribes the second face's stretch independently of the first (non-proportional loading:
+  several ratios in sequence, one axis held while the other moves).
 
 Shear-controlled kinds (``controls = "shear"``, for the simple-shear load case) prescribe the amount of shear
 :math:`\gamma(t)`:
@@ -188,7 +190,8 @@ class StretchCyclesProtocol:
 
 @dataclass(frozen=True, eq=False)
 class MeasuredStretchProtocol:
-    """A measured stretch history: samples ``stretch`` at ``time_s``, linearly interpolated (held beyond the last).
+    """A measured stretch history: samples ``stretch`` at ``time_s``, linearly interpolated (held beyond the last);
+    optionally the second face's own history ``stretch_2`` (a biaxial test, module docstring).
 
     The state at t = 0 is the reference: a sample at t = 0 must have stretch 1; without one, (0, 1) is the first
     point of the interpolation.
@@ -196,39 +199,57 @@ class MeasuredStretchProtocol:
 
     time_s: np.ndarray
     stretch: np.ndarray
+    stretch_2: np.ndarray | None = None
     kind = "measured_stretch"
     controls = "stretch"
 
     def __post_init__(self):
         t = check_increasing("protocol stretch time_s", self.time_s)
-        lam = np.asarray(self.stretch, dtype=float)
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "stretch", self._checked("stretch", self.stretch))
+        if self.stretch_2 is not None:
+            object.__setattr__(self, "stretch_2", self._checked("stretch_2", self.stretch_2))
+
+    def _checked(self, name: str, values) -> np.ndarray:
+        t = self.time_s
+        lam = np.asarray(values, dtype=float)
         if lam.shape != t.shape:
-            raise ValidationError("protocol stretch", f"{lam.size} samples", f"{t.size} (one per time sample)")
+            raise ValidationError(f"protocol {name}", f"{lam.size} samples", f"{t.size} (one per time sample)")
         bad = np.flatnonzero(~(np.isfinite(lam) & (lam > 0)))
         if bad.size:
-            raise ValidationError("stretch", f"{lam[bad[0]]} at row {bad[0]}", "finite stretches > 0")
+            raise ValidationError(name, f"{lam[bad[0]]} at row {bad[0]}", "finite stretches > 0")
         if t[0] == 0 and abs(lam[0] - 1.0) > 1e-9:
             raise ValidationError(
-                "stretch at time_s = 0",
+                f"{name} at time_s = 0",
                 float(lam[0]),
                 "1 (t = 0 is the unloaded reference state)",
                 "start the times after 0 if the first sample is already stretched",
             )
-        object.__setattr__(self, "time_s", t)
-        object.__setattr__(self, "stretch", lam)
+        return lam
 
     def stretch_at(self, time_s: np.ndarray) -> np.ndarray:
         t = np.asarray(time_s, dtype=float)
         return np.interp(t, np.r_[0.0, self.time_s], np.r_[1.0, self.stretch])
 
+    def stretch_2_at(self, time_s: np.ndarray) -> np.ndarray | None:
+        """The second face's stretch at ``time_s`` (None without a second history)."""
+        if self.stretch_2 is None:
+            return None
+        t = np.asarray(time_s, dtype=float)
+        return np.interp(t, np.r_[0.0, self.time_s], np.r_[1.0, self.stretch_2])
+
     @classmethod
     def from_mapping(cls, d: dict, *, columns: dict | None = None, length_x_mm: float | None = None, **_):
         columns = columns or {}
-        col = d.get("stretch_column", "stretch")
+        col, col2 = d.get("stretch_column", "stretch"), d.get("stretch_2_column", "stretch_2")
+        if "stretch_2_column" in d and col2 not in columns:
+            raise ValidationError("protocol.stretch_2_column", col2, f"a column of the data file {sorted(columns)}")
+        second = columns.get(col2) if "time_s" in columns else None
         if "time_s" in columns and col in columns:
-            return cls(time_s=columns["time_s"], stretch=columns[col])
+            return cls(time_s=columns["time_s"], stretch=columns[col], stretch_2=second)
         if "time_s" in columns and "displacement_mm" in columns and "stretch_column" not in d and length_x_mm:
-            return cls(time_s=columns["time_s"], stretch=1.0 + columns["displacement_mm"] / float(length_x_mm))
+            return cls(time_s=columns["time_s"], stretch=1.0 + columns["displacement_mm"] / float(length_x_mm),
+                       stretch_2=second)  # fmt: skip
         raise ValidationError(
             "protocol.kind",
             "measured_stretch",

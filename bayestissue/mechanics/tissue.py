@@ -19,7 +19,12 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive, check_unit_vector
 from bayestissue.mechanics.laws import FibreLaw, LawParameter, LinearFibre, MatrixLaw, MooneyRivlin
-from bayestissue.mechanics.laws.prony import branch_parameter_count, branch_parameters, check_branches
+from bayestissue.mechanics.laws.prony import (
+    branch_order,
+    branch_parameter_count,
+    branch_parameters,
+    check_branches,
+)
 from bayestissue.paper import PAPER_BULK_KPA, PAPER_DIRECTIONS_PRINTED, PAPER_PHI_FIBRES, PAPER_PHI_MATRIX
 
 __all__ = [
@@ -31,11 +36,15 @@ __all__ = [
 ]
 
 
+def _suffixed_name(name: str, suffix: str) -> str:
+    """A fibre family's or the matrix branches' name: ``ginf`` + ``2`` -> ``ginf2``, ``k1`` + ``2`` -> ``k1_2``."""
+    sep = "_" if name[-1].isdigit() and suffix[:1].isdigit() else ""
+    return f"{name}{sep}{suffix}"
+
+
 def _suffixed(p: LawParameter, suffix: str) -> LawParameter:
-    """A fibre family's or the matrix branches' copy of ``p``: ``ginf`` + ``2`` -> ``ginf2``, ``k1`` + ``2`` ->
-    ``k1_2``."""
-    sep = "_" if p.name[-1].isdigit() and suffix[:1].isdigit() else ""
-    return p.renamed(f"{p.name}{sep}{suffix}")
+    """A fibre family's or the matrix branches' copy of ``p`` (:func:`_suffixed_name`)."""
+    return p.renamed(_suffixed_name(p.name, suffix))
 
 
 @dataclass(frozen=True)
@@ -134,6 +143,18 @@ class TissueConfig:
             specs += [_suffixed(p, str(k)) for p in fibre]
             specs += list(branch_parameters(self.fibre_branches, str(k)))
         return tuple(specs)
+
+    @property
+    def label_groups(self) -> tuple[tuple[tuple[tuple[str, ...], ...], bool], ...]:
+        """Terms the data cannot tell apart by label, by parameter name (:meth:`Law.label_groups`): the matrix law's,
+        its branches', and each fibre family's law and branches."""
+        groups = list(self.matrix.label_groups()) + list(branch_order(self.matrix_branches, "_m"))
+        for k in range(1, self.n_fibres + 1):
+            for terms, exchangeable in self.fibre.label_groups():
+                terms = tuple(tuple(_suffixed_name(n, str(k)) for n in t) for t in terms)
+                groups.append((terms, exchangeable))
+            groups += branch_order(self.fibre_branches, str(k))
+        return tuple(groups)
 
     @property
     def param_names(self) -> tuple[str, ...]:

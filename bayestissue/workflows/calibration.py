@@ -206,10 +206,22 @@ def _ensemble_centres(problem, fits, best, config):
             "the data may be far outside what the boxes allow (units? a displacement in um read as mm?), "
             "or every solve failed",
         )  # fmt: skip
+    # an optimum in another labelling of an ordered group that cannot be relabelled (Prony branches) starts no
+    # ensemble: the prior is zero there (inference.ordering.OrderedGroup)
+    centres = problem.canonical(np.array([problem.nuisance_estimate(r.x) for r in distinct]))
+    ordered = problem.parameters.in_order(centres)
+    if not np.any(ordered):
+        raise ValidationError(
+            "least-squares warm start",
+            f"{len(distinct)} plausible optima, none with {problem.parameters.ordered_text}",
+            "an optimum in the ordered labelling the prior keeps",
+            "give more starts ([warmstart] n_starts) or use the nested engine, which needs no warm start",
+        )  # fmt: skip
+    distinct = [r for r, ok in zip(distinct, ordered, strict=True) if ok]
+    centres = centres[ordered]
     n = config.sampler.n_ensembles
-    chosen = [distinct[k % len(distinct)] for k in range(n)]
-    centres = problem.canonical(np.array([problem.nuisance_estimate(r.x) for r in chosen]))
-    return centres, [r.cov for r in chosen]
+    pick = [k % len(distinct) for k in range(n)]
+    return centres[pick], [distinct[k].cov for k in pick]
 
 
 def _write(outcome: CalibrationOutcome, out_dir) -> None:

@@ -17,6 +17,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 from bayestissue.inference import CalibrationProblem, ExperimentTerm, ParameterSet, ParameterSpec, make_noise
+from bayestissue.inference.ordering import OrderedGroup
 from bayestissue.mechanics import PAPER_TISSUE, ForwardModel, TissueConfig, parse_parameters
 from bayestissue.mechanics.presets import preset
 from bayestissue.paper import PAPER_PARAMETERS
@@ -69,7 +70,8 @@ def parameter_set(tissue, *, prior: str = "default", fixed_inputs: Mapping | Non
                 value=value,
             )
         )
-    return ParameterSet(tuple(specs), dict(fixed_inputs or {}))
+    ordered = tuple(OrderedGroup(terms, exchangeable) for terms, exchangeable in tissue.label_groups)
+    return ParameterSet(tuple(specs), dict(fixed_inputs or {}), ordered)
 
 
 def paper_parameter_set(n_fibres: int = 3, *, prior: str = "default", fixed_inputs: Mapping | None = None):
@@ -173,7 +175,7 @@ def _material(experiments, config: CalibrationConfig) -> ParameterSet:
         if target not in [e.name for e in experiments]:
             raise ValidationError("specimen target", target, f"one of {[e.name for e in experiments]}")
         extra = tuple(specimen_spec(k) for k in specimen_kinds(kind))
-        material = ParameterSet(material.specs + extra, material.fixed_inputs)
+        material = ParameterSet(material.specs + extra, material.fixed_inputs, material.ordered)
     return material
 
 

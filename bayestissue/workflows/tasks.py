@@ -232,7 +232,7 @@ def _sampled_start(mat: ParameterSet, start) -> np.ndarray:
 
 def _untied(mat: ParameterSet) -> ParameterSet:
     """``mat`` with every tie released (same boxes and priors): the space of the reported draws."""
-    return ParameterSet(tuple(replace(s, tied_to=None) for s in mat.specs), mat.fixed_inputs)
+    return ParameterSet(tuple(replace(s, tied_to=None) for s in mat.specs), mat.fixed_inputs, mat.ordered)
 
 
 def attach_posterior(outcome: CalibrationDraws, path, *, keep: int = 4000) -> CalibrationDraws:

@@ -153,6 +153,22 @@ def test_replicates_need_two_bootstrap_draws(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("n_rows", [1, 3, 14])
+@pytest.mark.parametrize("command", ["lines", "replicates"])
+def test_line_files_too_short_for_the_mixture(tmp_path, capsys, n_rows, command):
+    """A line file of a few segments: the message named n_components, a key the user never set, after the bootstrap
+    had started (issue 34); now the file and its rows, before any work."""
+    rows = [r for r in (DATA / "stereology_lines.csv").read_text().splitlines() if not r.startswith("#")]
+    path = tmp_path / "few.csv"
+    path.write_text("\n".join(rows[: n_rows + 1]) + "\n")
+    shutil.copy(DATA / "stereology_lines.toml", tmp_path / "few.toml")
+    out = tmp_path / "R.csv"
+    argv = ["stereology", "lines", str(path)] if command == "lines" else [
+        "stereology", "replicates", str(DATA / "stereology_counts.csv"), str(path), "--out", str(out)]  # fmt: skip
+    _refused(capsys, argv, rf"few.csv rows: expected at least 15 traced segments .*got '{n_rows} segment")
+    assert not out.exists()
+
+
 def test_rose_top_names_its_option(capsys):
     _refused(capsys, ["stereology", "rose", str(DATA / "stereology_lines.csv"), "--top", "0"], r"k \(--top\)")
 

@@ -108,6 +108,19 @@ def test_import_refuses_to_overwrite_and_bad_options(tmp_path, capsys):
     assert "both or neither" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("step", ["1000", "1.3"])
+def test_a_resampling_step_longer_than_the_test_is_refused(tmp_path, capsys, step):
+    """``--step-s 1000`` on a 3.5 s export: RuntimeWarnings and an error about a file the command had written and
+    deleted (issue 34); a step leaving fewer than 2 steps over the 2.5 s kept (the failure at 3 s is cut) is refused
+    before anything is written, naming the option, the file and the longest step allowed."""
+    src = _write(tmp_path, TENDON)
+    assert main(["import", str(src), "--out", str(tmp_path / "out"), "--step-s", step]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert "--step-s: expected a step of at most 1.25 s (export.csv keeps 2.5 s: at least 2 steps)" in err, err
+    assert not (tmp_path / "out").exists()
+
+
 def test_prepare_trims(tmp_path):
     from bayestissue.io.export_prepare import prepare
 

@@ -14,6 +14,7 @@ from bayestissue.mechanics import (
     load_experiment,
     param_names,
     parse_parameters,
+    simulate,
 )
 
 DATA = Path(__file__).resolve().parents[2] / "data"
@@ -196,3 +197,47 @@ def test_invalid_toml_names_the_file(tmp_path):
     bad.write_text("[specimen\nlength_x_mm = 5")
     with pytest.raises(ValidationError, match="experiment bad.toml: expected valid TOML"):
         load_experiment(bad)
+
+
+BIAXIAL_TOML = """name = "skin_biaxial"
+synthetic = true
+[specimen]
+length_x_mm = 10.0
+length_y_mm = 10.0
+length_z_mm = 1.0
+[protocol]
+kind = "measured_stretch"
+mode = "biaxial"
+{extra}
+[simulation]
+dt_s = 0.5
+[tissue]
+preset = "rubber"
+matrix = "neo_hookean"
+[data]
+file = "b.csv"
+"""
+
+
+@pytest.mark.parametrize(("extra", "second"), [("", "stretch_2"), ('stretch_2_column = "lam_y"', "lam_y")])
+def test_biaxial_file_with_two_stretch_histories(tmp_path, extra, second):
+    """A biaxial experiment file whose data give each face its own stretch (a stretch_2 column, or one named by
+    stretch_2_column): the second face follows its own history, not the ratio; both faces' forces are observed."""
+    t = np.arange(0.0, 10.5, 0.5)
+    lam1, lam2 = np.interp(t, [0, 5, 10], [1, 1.2, 1.2]), np.interp(t, [0, 5, 10], [1, 1, 1.1])
+    rows = "\n".join(f"{a},{b},{c},0,0" for a, b, c in zip(t, lam1, lam2, strict=True))
+    (tmp_path / "b.csv").write_text(f"time_s,stretch,{second},force_mN,force_2_mN\n{rows}\n")
+    (tmp_path / "b.toml").write_text(BIAXIAL_TOML.format(extra=extra))
+    exp = load_experiment(tmp_path / "b.toml")
+    np.testing.assert_allclose(exp.prescribed()[:, 1], np.interp(exp.step_time_s, t, lam2))
+    assert [c.column for c in exp.channels] == ["force_mN", "force_2_mN"]
+    y = simulate(exp, [200.0])
+    assert y.shape == (t.size, 2) and np.all(np.isfinite(y))
+    assert y[10, 1] > 0 and y[10, 1] < y[10, 0]  # face 2 held at 1 while face 1 is stretched: less force on it
+
+
+def test_biaxial_file_naming_a_missing_second_column(tmp_path):
+    (tmp_path / "b.csv").write_text("time_s,stretch,force_mN\n0,1,0\n1,1.1,0\n2,1.2,0\n")
+    (tmp_path / "b.toml").write_text(BIAXIAL_TOML.format(extra='stretch_2_column = "lam_y"'))
+    with pytest.raises(ValidationError, match=r"protocol.stretch_2_column: expected a column of the data file"):
+        load_experiment(tmp_path / "b.toml")

@@ -3,6 +3,7 @@ state, the stress is the strain energy's derivative (complex step of each law's 
 tangent is the stress's derivative (central differences), objectivity, the tension-only switch and the recruitment
 stretch one-sided; docs/laws.md is generated from the registry."""
 
+import itertools
 import zlib
 from pathlib import Path
 
@@ -27,6 +28,7 @@ MATRICES = [
     ("neo_hookean", {}, [2.5]),
     ("ogden", {"terms": 1}, [1.5, -7.0]),
     ("ogden", {"terms": 2}, [1.2, 3.5, 0.8, -2.5]),
+    ("ogden", {"terms": 3}, [1.2, 3.5, 0.8, -2.5, 0.3, 6.0]),
     ("yeoh", {}, [2.0, -0.3, 0.05]),
 ]
 FIBRES = [
@@ -102,8 +104,14 @@ def test_zero_stress_in_the_reference_state(name, tissue, vals):
 
 
 def _strains(rng, n=4, scale=0.12):
-    for _ in range(n):
-        yield rng.normal(0.0, scale, 6) + np.array([0.08, 0.02, -0.03, 0, 0, 0])
+    """``n`` random Green strains (Voigt) whose C = I + 2E has eigenvalues above 0.2 (a draw below is skipped: the
+    kernels refuse an inadmissible C)."""
+    done = 0
+    while done < n:
+        e = rng.normal(0.0, scale, 6) + np.array([0.08, 0.02, -0.03, 0, 0, 0])
+        if np.linalg.eigvalsh(np.eye(3) + 2.0 * from_voigt(e)).min() > 0.2:
+            done += 1
+            yield e
 
 
 @pytest.mark.parametrize(("name", "tissue", "vals"), CASES, ids=IDS)
@@ -170,6 +178,39 @@ def test_objectivity(name, tissue, vals):
         turned = tissue if tissue.n_fibres == 0 else _tissue(fibre=tissue.fibre, direction=Q @ V)
         S2, _ = stress(turned, p, to_voigt(Q @ from_voigt(e) @ Q.T), False)
         np.testing.assert_allclose(from_voigt(S2), Q @ from_voigt(S) @ Q.T, rtol=0, atol=1e-10 * np.abs(S).max())
+
+
+@pytest.mark.parametrize(("name", "tissue", "vals"), CASES, ids=IDS)
+def test_exchangeable_terms_give_the_same_stress(name, tissue, vals):
+    """A law's exchangeable label group (the prior keeps one labelling of its terms and relabels points into it,
+    inference.ordering.OrderedGroup) must be a true symmetry: every permutation of whole terms gives the kernel's
+    stress to round-off (1e-12 of its largest component). Laws without such a group pass trivially."""
+    p = _params(tissue, vals)
+    names = list(tissue.param_names)
+    groups = [terms for terms, exchangeable in tissue.label_groups if exchangeable]
+    e = np.array([0.09, -0.02, -0.04, 0.03, -0.01, 0.02])
+    S, _ = stress(tissue, p, e, False)
+    for terms in groups:
+        idx = np.array([[names.index(n) for n in t] for t in terms])
+        for perm in itertools.permutations(range(len(terms))):
+            q = p.copy()
+            q[idx.ravel()] = p[idx[list(perm)].ravel()]
+            np.testing.assert_allclose(stress(tissue, q, e, False)[0], S, rtol=0, atol=1e-12 * np.abs(S).max())
+
+
+def test_label_groups_of_the_tissue():
+    """Which terms a tissue's prior orders: Ogden terms by exponent (exchangeable), Prony branches by rate
+    (branch 1 the fastest; not a permutation symmetry), per fibre family with the family's names."""
+    assert _tissue(matrix=matrix_law("ogden", terms=3)).label_groups == (
+        ((("alpha1", "mu1"), ("alpha2", "mu2"), ("alpha3", "mu3")), True),)  # fmt: skip
+    assert _tissue(matrix=matrix_law("ogden", terms=1)).label_groups == ()
+    t = TissueConfig([V, -V], [0.3, 0.3], 0.4, BULK, fibre=fibre_law("hgo"), fibre_branches=2, matrix_branches=3)
+    assert t.label_groups == (
+        ((("beta_m",), ("beta_m_2",), ("beta_m_3",)), False),
+        ((("beta1",), ("beta1_2",)), False),
+        ((("beta2",), ("beta2_2",)), False),
+    )  # fmt: skip
+    assert {n for g, _ in t.label_groups for term in g for n in term} <= set(t.param_names)
 
 
 @pytest.mark.parametrize(("name", "opts", "vals"), FIBRES, ids=[f"{n}-{o}" for n, o, _ in FIBRES])

@@ -7,7 +7,12 @@ import pytest
 from bayestissue._validation import ValidationError
 from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig, load_case, matrix_law
 from bayestissue.mechanics.loadcases import Biaxial, Equibiaxial, PureShear, SimpleShear, Uniaxial
-from bayestissue.mechanics.protocols import CreepProtocol, ShearRampProtocol, StretchRampProtocol
+from bayestissue.mechanics.protocols import (
+    CreepProtocol,
+    MeasuredStretchProtocol,
+    ShearRampProtocol,
+    StretchRampProtocol,
+)
 
 SPEC = (4.0, 2.0, 1.0)  # mm
 #: bulk modulus, 10^7 times the small-strain shear moduli below: the compressible model's distance from the
@@ -87,6 +92,40 @@ def test_load_case_matches_the_incompressible_closed_form(law, mode, peak):
         np.testing.assert_allclose(y[:, 1], y[:, 0], rtol=1e-10)  # the two faces alike (isotropic)
     if mode == "compression":
         assert np.all(P1[1:] < 0)
+
+
+@pytest.mark.parametrize("law", list(LAWS))
+def test_biaxial_with_two_stretch_histories_matches_the_closed_form(law):
+    r"""Non-proportional planar biaxial loading (face 1 to 1.4 with face 2 held at 1, then face 2 to 1.25 with face 1
+    held, then face 1 back to 1.1): both faces' nominal stresses against the incompressible closed form
+    :math:`P_a = \lambda_a^{-1}\sum_p \tfrac{2\mu_p}{\alpha_p}(\lambda_a^{\alpha_p} - \lambda_3^{\alpha_p})`,
+    :math:`\lambda_3 = 1/(\lambda_1\lambda_2)`, within 1e-4 of the largest stress (K = 1e7 mu, as above). The
+    first leg is pure shear on face 1 (face 2's stress is then the planar-tension lateral stress, not zero)."""
+    t = np.linspace(0.0, 30.0, 61)
+    lam1 = np.interp(t, [0, 10, 20, 30], [1, 1.4, 1.4, 1.1])
+    lam2 = np.interp(t, [0, 10, 20, 30], [1, 1, 1.25, 1.25])
+    prot = MeasuredStretchProtocol(t, lam1, lam2)
+    zeros = np.zeros(t.size)
+    exp = Experiment("x", SPEC, prot, t, 0.5, tissue=_tissue(law), load_case=Biaxial(), stress_kpa=zeros,
+                     columns={"nominal_stress_2_kpa": zeros})  # fmt: skip
+    y = ForwardModel(exp)(np.array(LAWS[law][1]))
+    lam3 = 1.0 / (lam1 * lam2)
+    ref = np.zeros((t.size, 2))
+    for mu, a in _ogden_terms(law):
+        ref[:, 0] += 2.0 * mu / a * (lam1**a - lam3**a) / lam1
+        ref[:, 1] += 2.0 * mu / a * (lam2**a - lam3**a) / lam2
+    np.testing.assert_allclose(y, ref, rtol=0, atol=1e-4 * np.abs(ref).max())
+    assert abs(ref[20, 1]) > 0.1 * np.abs(ref).max()  # the held face carries stress: the histories are independent
+
+
+def test_a_second_stretch_history_needs_the_general_biaxial_case():
+    """A stretch_2 history with a load case that fixes face 2 (uniaxial, equibiaxial, pure shear, or biaxial with a
+    ratio) is refused by name rather than ignored."""
+    t = np.linspace(0.0, 10.0, 11)
+    prot = MeasuredStretchProtocol(t, np.linspace(1, 1.2, 11), np.linspace(1, 1.1, 11))
+    for case in (Uniaxial(), Equibiaxial(), PureShear(), Biaxial(ratio=0.5)):
+        with pytest.raises(ValidationError, match=r"'biaxial' without a ratio .*got 'a second stretch history"):
+            Experiment("x", SPEC, prot, t, 0.5, tissue=_tissue("neo_hookean"), load_case=case)
 
 
 def test_force_controlled_biaxial_is_the_inverse_of_the_stretch_controlled_one():

@@ -10,13 +10,22 @@ import pytest
 from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig, fibre_law, load_experiment, matrix_law
 from bayestissue.mechanics.branches import with_second_branch
 from bayestissue.mechanics.loadcases import Biaxial, Equibiaxial, SimpleShear, Uniaxial
-from bayestissue.mechanics.protocols import CreepProtocol, ShearRampProtocol, StretchRampProtocol
+from bayestissue.mechanics.protocols import (
+    CreepProtocol,
+    MeasuredStretchProtocol,
+    ShearRampProtocol,
+    StretchRampProtocol,
+)
 from bayestissue.mechanics.reference import reference_laws_simulate
 from bayestissue.paper import PAPER_BOUNDS, PAPER_PARAMETERS
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = (5.0, 2.0, 3.0)
 T = np.arange(0.0, 60.0 + 1e-9, 2.0)
+#: a non-proportional biaxial path: face 1 stretched to 1.25 in 20 s with face 2 held, then face 2 to 1.15 in 20 s
+#: with face 1 held, then both held (relaxation)
+SEQUENTIAL = MeasuredStretchProtocol(T, np.interp(T, [0, 20, 60], [1, 1.25, 1.25]),
+                                     np.interp(T, [0, 20, 40, 60], [1, 1, 1.15, 1.15]))  # fmt: skip
 V2 = (np.cos(0.35), np.sin(0.35), 0.0)
 
 
@@ -31,6 +40,10 @@ CASES = {
     "ogden+branch, biaxial stretch (ratio 0.5)": (
         TissueConfig(np.zeros((0, 3)), [], 1.0, 500.0, matrix=matrix_law("ogden"), matrix_branches=1),
         StretchRampProtocol(1.3, 20.0), Biaxial(ratio=0.5), [2.0, -6.0, 0.6, 0.05],
+    ),
+    "ogden(2) + 2 branches, biaxial with two stretch histories": (
+        TissueConfig(np.zeros((0, 3)), [], 1.0, 500.0, matrix=matrix_law("ogden", terms=2), matrix_branches=2),
+        SEQUENTIAL, Biaxial(), [2.0, 5.0, 0.5, -4.0, 0.6, 0.3, 0.5, 0.4, 0.02],
     ),
     "neo-Hookean + hgo(recruitment, 2 branches), uniaxial stretch": (
         TissueConfig([[1, 0, 0], V2], [0.2, 0.2], 0.6, 300.0, matrix=matrix_law("neo_hookean"),

@@ -32,7 +32,8 @@ class EnsembleResult:
     n_steps : steps run; store_thin : steps per stored row; burn_in : burn-in steps (2 max tau).
     tau : (ndim,) integrated autocorrelation times (steps); tau_history : (n_checks, ndim).
     acceptance : (n_walkers,) acceptance fraction per walker.
-    converged_length : ``n_steps >= tau_factor * max(tau)`` and tau stable to ``tau_rtol``.
+    converged_length : ``n_steps >= tau_factor * max(tau)`` and tau stable to ``tau_rtol`` (or the ensemble twice
+        that long: :func:`~bayestissue.inference.sampling.phases._length_ok`).
     """
 
     ensemble_id: int

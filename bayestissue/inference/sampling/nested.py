@@ -19,7 +19,9 @@ vectorised interface passes ``n_batch`` points at once); a failed forward solve 
 With ``exchangeable`` parameter groups (the problem's prior keeps the first group's leading parameter the
 larger, density doubled) the runs sample the whole box, where the likelihood has both label-switched copies of
 every mode, and the draws are folded afterwards (:meth:`CalibrationProblem.canonical`). The evidence is the same:
-with a symmetric likelihood, :math:`\\int_{\\text{half}} L\\, 2\\pi = \\int L \\pi`.
+with a symmetric likelihood, :math:`\\int_{\\text{half}} L\\, 2\\pi = \\int L \\pi`. A law's ordered label groups (Ogden
+terms, Prony branches: :class:`~bayestissue.inference.ordering.OrderedGroup`) are different: the prior transform
+maps the cube onto the ordered region itself (order statistics), so the runs see one labelling, not ``n!`` copies.
 
 Unknown Gaussian noise sds are integrated out analytically by default (:mod:`bayestissue.inference.marginal_noise`):
 the runs sample the material parameters under the marginal likelihood (same evidence), and each point's sd is

@@ -95,6 +95,13 @@ def laws_markdown() -> str:
         "`log` prior scale is log-uniform on the box, `linear` uniform. The equations are in each law's module "
         "docstring. Fibre family k's parameters carry the suffix k (`ginf2`, `k1_2` where the name ends in a "
         "digit).",
+        "",
+        "Terms that the data cannot tell apart by label (the terms of an Ogden law, the branches of a Prony series) "
+        "are ordered by the prior: Ogden terms by decreasing exponent (`alpha1 > alpha2 > ...`), branches by "
+        "decreasing rate (`beta1 > beta1_2 > ...`: branch 1 the fastest). The prior is the box prior restricted "
+        "to that labelling and renormalised (`bayestissue.inference.ordering.OrderedGroup`); the evidence of "
+        "a law is unchanged, its marginals describe one term each, and the nested sampler explores one copy of "
+        "each mode instead of n!.",
     ]
     for title, table in (("Matrix laws", MATRIX_LAWS), ("Fibre laws", FIBRE_LAWS)):
         lines += ["", f"## {title}"]

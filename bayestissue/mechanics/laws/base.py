@@ -116,6 +116,12 @@ class Law:
     def n_parameters(self) -> int:
         return len(self.parameters())
 
+    def label_groups(self) -> tuple[tuple[tuple[tuple[str, ...], ...], bool], ...]:
+        """Terms of the law the data cannot tell apart by label, each group as ``(terms, exchangeable)``: per term its
+        parameter names with the key by which the terms are ordered first, and whether permuting whole terms leaves
+        the stress unchanged (:class:`bayestissue.inference.ordering.OrderedGroup`). None by default."""
+        return ()
+
     def kernel_options(self) -> int:
         """An integer option the kernels read (e.g. the number of Ogden terms); 0 by default."""
         return 0

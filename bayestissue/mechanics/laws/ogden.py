@@ -225,6 +225,11 @@ class Ogden(MatrixLaw):
             ]  # fmt: skip
         return tuple(out)
 
+    def label_groups(self):
+        """The terms are exchangeable (the energy is a sum over them): ordered by decreasing exponent."""
+        n = self.settings["terms"]
+        return (((tuple((f"alpha{t}", f"mu{t}") for t in range(1, n + 1))), True),) if n > 1 else ()
+
     def energy_reference(self, C, params):
         c = principal_values(C)
         det = c[0] * c[1] * c[2]

@@ -42,6 +42,7 @@ __all__ = [
     "branch_constants",
     "branch_offset",
     "branch_parameter_count",
+    "branch_order",
     "branch_parameters",
     "check_branches",
 ]
@@ -81,6 +82,16 @@ def branch_parameters(n: int, suffix: str, *, rates=(1e-5, 2.5)) -> tuple[LawPar
                          f"relaxation rate of branch {i}"),
         ]  # fmt: skip
     return tuple(out)
+
+
+def branch_order(n: int, suffix: str) -> tuple[tuple[tuple[tuple[str, ...], ...], bool], ...]:
+    """The label group of ``n`` branches (as :meth:`~bayestissue.mechanics.laws.base.Law.label_groups`): ordered by
+    decreasing rate, branch 1 the fastest. Not exchangeable by a permutation of the parameters (branch 1 carries no
+    relative modulus: exchanging it with branch i rescales the law's moduli by :math:`r_i`), so only the prior's
+    restriction applies."""
+    if n < 2:
+        return ()
+    return ((tuple((f"beta{suffix}" if i == 1 else f"beta{suffix}_{i}",) for i in range(1, n + 1)), False),)
 
 
 @kernel

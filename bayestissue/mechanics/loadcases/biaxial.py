@@ -1,10 +1,11 @@
 r"""Planar biaxial tension in the x-y plane (equibiaxial, general ratio) and pure shear, the thickness face free.
 
 Stretch control: :math:`\lambda_1(t)` the protocol's stretch, :math:`\lambda_2 = 1 + \rho(\lambda_1 - 1)` with the
-ratio :math:`\rho` (1: equibiaxial; 0: pure shear, planar tension, :math:`\lambda_2 = 1`); :math:`P_{33} = 0` and
-the shears stress-free. Force control: dead loads :math:`P_1(t)` and :math:`P_2 = \rho P_1`. Observed: the nominal
-stress or force on each loaded face (stretch control) or each face's displacement (force control); pure shear
-observes face 1 only.
+ratio :math:`\rho` (1: equibiaxial; 0: pure shear, planar tension, :math:`\lambda_2 = 1`), or, for the general
+biaxial case, :math:`\lambda_2(t)` a history of its own (a measured ``stretch_2`` column: non-proportional loading,
+e.g. several ratios in sequence); :math:`P_{33} = 0` and the shears stress-free. Force control: dead loads
+:math:`P_1(t)` and :math:`P_2 = \rho P_1`. Observed: the nominal stress or force on each loaded face (stretch
+control) or each face's displacement (force control); pure shear observes face 1 only.
 
 Incompressible closed forms (docs/verification.md), isotropic :math:`W(I_1, I_2)`: equibiaxial
 :math:`P = 2(\lambda - \lambda^{-5})(W_1 + \lambda^2 W_2)`; pure shear :math:`P_1 = 2(\lambda - \lambda^{-3})(W_1 +
@@ -37,13 +38,23 @@ class Biaxial(LoadCase):
         super().__init__(**options)
         ratio = self.settings.get("ratio", 1.0) if self.fixed_ratio is None else self.fixed_ratio
         self.ratio = check_finite("protocol ratio", ratio)
+        self.ratio_given = "ratio" in options
+
+    def check_second_history(self) -> None:
+        if self.fixed_ratio is not None or self.ratio_given:
+            super().check_second_history()
 
     def prescribe(self, history, controls):
         self.check_controls(controls)
         rho = self.ratio
         kind = LOAD if controls == "force" else STRETCH
         kinds = np.array([kind, kind, FREE, FREE, FREE, FREE], dtype=np.int64)
-        values = np.zeros((history.size, 6))
+        history = np.asarray(history, dtype=float)
+        values = np.zeros((history.shape[0], 6))
+        if history.ndim == 2:  # the second face's own stretch history
+            self.check_second_history()
+            values[:, :2] = history
+            return kinds, values
         values[:, 0] = history
         values[:, 1] = rho * history if controls == "force" else 1.0 + rho * (history - 1.0)
         return kinds, values
