@@ -108,6 +108,9 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
     }
     if problem.material.ordered:  # the labelling the prior keeps (inference.ordering.OrderedGroup)
         meta["parameters_ordered"] = problem.material.ordered_text
+        if not problem.parameters.in_order(ls):  # Prony branches: no permutation brings it into the draws' labelling
+            meta["parameters_ordered"] += (" (the least-squares optimum is in another labelling: its ls_estimate and "
+                                           "Wald columns describe other branches than the draws')")  # fmt: skip
     if sample is not None:
         flat = sample.flat()
         q05, q50, q95 = np.quantile(flat, [0.05, 0.5, 0.95], axis=0)

@@ -164,7 +164,10 @@ class Experiment:
         if not isinstance(self.load_case, LoadCase):
             raise ValidationError("load_case", type(self.load_case).__name__, "a LoadCase")
         self.load_case.check_controls(self.controls)
-        if getattr(self.protocol, "stretch_2", None) is not None:
+        if (
+            getattr(self.protocol, "stretch_2", None) is not None
+            or getattr(self.protocol, "force_2_mN", None) is not None
+        ):
             self.load_case.check_second_history()
         cols = {k: np.asarray(v, dtype=float) for k, v in dict(self.columns).items() if k not in _FIELDS}
         for name, v in cols.items():
@@ -202,10 +205,14 @@ class Experiment:
     def prescribed(self) -> np.ndarray:
         """(n_steps + 1,) the driving history at the simulation steps: the nominal stress (kPa, 0 at t = 0) under
         force control, the stretch of the loaded face (1 at t = 0) under stretch control, the amount of shear (0 at
-        t = 0) under shear control; ``(n_steps + 1, 2)`` for a biaxial test whose second face has its own stretch
-        history (:class:`~bayestissue.mechanics.protocols.MeasuredStretchProtocol`)."""
+        t = 0) under shear control; ``(n_steps + 1, 2)`` for a biaxial test whose second face has its own stretch or
+        force history (:class:`~bayestissue.mechanics.protocols.MeasuredStretchProtocol`,
+        :class:`~bayestissue.mechanics.protocols.MeasuredForceProtocol`)."""
         if self.controls == "force":
-            return self.nominal_stress_kpa()
+            lx, _, lz = self.specimen_mm
+            second = getattr(self.protocol, "nominal_stress_2_kpa", lambda *_: None)(self.step_time_s, lx * lz)
+            first = self.nominal_stress_kpa()
+            return first if second is None else np.column_stack([first, second])
         if self.controls == "shear":
             g = np.asarray(self.protocol.shear_at(self.step_time_s), dtype=float)
             g[0] = 0.0

@@ -27,7 +27,7 @@ _POSITIVE = {"low": 0.0, "low_open": True}
 PROTOCOL_KEYS = {
     "creep": ("kind", "mode", "ratio", "stress_kpa"),
     "ramp": ("kind", "mode", "ratio", "hold_stress_kpa", "hold_s", "rate_kpa_per_s"),
-    "measured": ("kind", "mode", "ratio", "force_column"),
+    "measured": ("kind", "mode", "ratio", "force_column", "force_2_column"),
     "stretch_ramp": ("kind", "mode", "ratio", "stretch", "ramp_s"),
     "stretch_cycles": ("kind", "mode", "ratio", "stretch", "period_s"),
     "measured_stretch": ("kind", "mode", "ratio", "stretch_column", "stretch_2_column"),
@@ -61,6 +61,9 @@ TABLES: dict[str, dict[str, Key]] = {
         "hold_s": Key("float", "required (ramp)", "duration of the hold (s)", low=0.0),
         "rate_kpa_per_s": Key("float", "required (ramp)", "rate of the nominal stress after the hold (kPa/s)"),
         "force_column": Key("text", '"force_mN"', "the data file's force column (measured)"),
+        "force_2_column": Key("text", '"force_2_mN"', "biaxial: the data file's column of the second face's force, "
+                              "applied independently of the first (measured with mode = 'biaxial'; without the "
+                              "column, the ratio applies)"),
         "stretch": Key("float", "required (stretch_ramp, stretch_cycles)", "peak stretch of the loaded face",
                        **_POSITIVE),
         "ramp_s": Key("float", "required (stretch_ramp)", "duration of the ramp to the peak, then held (s)",
@@ -152,7 +155,8 @@ def experiment_markdown() -> str:
         "of a measured protocol, observed under stretch control), `stretch` (the load of a measured_stretch "
         "protocol), `nominal_stress_kpa` (observed under stretch control where the data give no force); for the "
         "second loaded face of a biaxial test `force_2_mN`, `nominal_stress_2_kpa`, `displacement_2_mm` and "
-        "`stretch_2` (its own stretch history, for tests whose two stretches are not proportional); for simple "
+        "`stretch_2` or `force_2_mN` as its own load history (tests whose two loads are not proportional); for "
+        "simple "
         "shear `shear` (the load of a measured_shear protocol) and `shear_stress_kpa` or `shear_force_mN` "
         "(observed).",
     ]

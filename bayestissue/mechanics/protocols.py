@@ -8,7 +8,8 @@ the observable is the displacement of the loaded face:
   :math:`P_{11}(t) = P_h` for :math:`0 < t \le t_h` and :math:`P_h + r (t - t_h)` after (the paper's T2:
   1.6 kPa for 240 s then +3.24 kPa/min = 20 mN/min on its 1.71 x 3.61 mm cross-section);
 - ``measured``: a measured force history :math:`F(t_i)` given as samples, linearly interpolated (held constant
-  beyond the last sample).
+  beyond the last sample); for a planar biaxial test (``mode = "biaxial"``) a second column ``force_2_mN`` loads the
+  second face independently of the first.
 
 Displacement-controlled kinds (``controls = "stretch"``) prescribe the stretch of the loaded face
 :math:`\lambda(t) = 1 + u(t)/L_x`; the observable is the force on it (or the nominal stress, where the data give
@@ -109,31 +110,45 @@ class RampProtocol:
 
 @dataclass(frozen=True, eq=False)
 class MeasuredForceProtocol:
-    """A measured force history: samples ``force_mN`` at ``time_s``, linearly interpolated."""
+    """A measured force history: samples ``force_mN`` at ``time_s``, linearly interpolated; optionally the second
+    face's own force history ``force_2_mN`` (a biaxial test under two independent dead loads)."""
 
     time_s: np.ndarray
     force_mN: np.ndarray
+    force_2_mN: np.ndarray | None = None
     kind = "measured"
     controls = "force"
 
     def __post_init__(self):
         t = check_increasing("protocol force time_s", self.time_s)
-        f = np.asarray(self.force_mN, dtype=float)
-        if f.shape != t.shape:
-            raise ValidationError("protocol force_mN", f"{f.size} samples", f"{t.size} (one per time sample)")
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "force_mN", self._checked("force_mN", self.force_mN))
+        if self.force_2_mN is not None:
+            object.__setattr__(self, "force_2_mN", self._checked("force_2_mN", self.force_2_mN))
+
+    def _checked(self, name: str, values) -> np.ndarray:
+        f = np.asarray(values, dtype=float)
+        if f.shape != self.time_s.shape:
+            raise ValidationError(f"protocol {name}", f"{f.size} samples", f"{self.time_s.size} (one per time sample)")
         bad = np.flatnonzero(~np.isfinite(f))
         if bad.size:
-            raise ValidationError("force_mN", f"{f[bad[0]]} at row {bad[0]}", "finite values")
-        object.__setattr__(self, "time_s", t)
-        object.__setattr__(self, "force_mN", f)
+            raise ValidationError(name, f"{f[bad[0]]} at row {bad[0]}", "finite values")
+        return f
 
     def nominal_stress_kpa(self, time_s: np.ndarray, area_mm2: float) -> np.ndarray:
         t = np.asarray(time_s, dtype=float)
         return np.where(t > 0, np.interp(t, self.time_s, self.force_mN) / area_mm2, 0.0)
 
+    def nominal_stress_2_kpa(self, time_s: np.ndarray, area_mm2: float) -> np.ndarray | None:
+        """The second face's nominal stress (``area_mm2`` its reference area; None without a second history)."""
+        if self.force_2_mN is None:
+            return None
+        t = np.asarray(time_s, dtype=float)
+        return np.where(t > 0, np.interp(t, self.time_s, self.force_2_mN) / area_mm2, 0.0)
+
     @classmethod
     def from_mapping(cls, d: dict, *, columns: dict | None = None, **_):
-        col = d.get("force_column", "force_mN")
+        col, col2 = d.get("force_column", "force_mN"), d.get("force_2_column", "force_2_mN")
         if not columns or col not in columns or "time_s" not in columns:
             raise ValidationError(
                 "protocol.kind",
@@ -141,7 +156,9 @@ class MeasuredForceProtocol:
                 f"a data file with columns time_s and {col}",
                 "a measured protocol takes its load from the data file",
             )
-        return cls(time_s=columns["time_s"], force_mN=columns[col])
+        if "force_2_column" in d and col2 not in columns:
+            raise ValidationError("protocol.force_2_column", col2, f"a column of the data file {sorted(columns)}")
+        return cls(time_s=columns["time_s"], force_mN=columns[col], force_2_mN=columns.get(col2))
 
 
 @dataclass(frozen=True)

@@ -241,3 +241,20 @@ def test_biaxial_file_naming_a_missing_second_column(tmp_path):
     (tmp_path / "b.toml").write_text(BIAXIAL_TOML.format(extra='stretch_2_column = "lam_y"'))
     with pytest.raises(ValidationError, match=r"protocol.stretch_2_column: expected a column of the data file"):
         load_experiment(tmp_path / "b.toml")
+
+
+def test_biaxial_file_with_two_force_histories(tmp_path):
+    """kind = "measured", mode = "biaxial" with a force_2_mN column: each face carries its own dead load (nominal
+    stress over its own reference area, 10 x 1 mm for both faces here); the displacements of both faces observed."""
+    t = np.arange(0.0, 10.5, 0.5)
+    f1, f2 = np.interp(t, [0, 5, 10], [0, 800, 800]), np.interp(t, [0, 5, 10], [0, 0, 500])
+    rows = "\n".join(f"{a},{b},{c},0,0" for a, b, c in zip(t, f1, f2, strict=True))
+    (tmp_path / "b.csv").write_text(f"time_s,force_mN,force_2_mN,displacement_mm,displacement_2_mm\n{rows}\n")
+    toml = BIAXIAL_TOML.format(extra="").replace('kind = "measured_stretch"', 'kind = "measured"')
+    (tmp_path / "b.toml").write_text(toml)
+    exp = load_experiment(tmp_path / "b.toml")
+    P = exp.prescribed()
+    np.testing.assert_allclose(P[:, 1], np.interp(exp.step_time_s, t, f2) / 10.0)
+    assert [c.column for c in exp.channels] == ["displacement_mm", "displacement_2_mm"]
+    u = simulate(exp, [200.0])
+    assert np.all(np.isfinite(u)) and u[10, 1] < 0 < u[10, 0]  # face 2 unloaded at 5 s: it contracts

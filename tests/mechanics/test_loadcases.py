@@ -9,6 +9,7 @@ from bayestissue.mechanics import Experiment, ForwardModel, TissueConfig, load_c
 from bayestissue.mechanics.loadcases import Biaxial, Equibiaxial, PureShear, SimpleShear, Uniaxial
 from bayestissue.mechanics.protocols import (
     CreepProtocol,
+    MeasuredForceProtocol,
     MeasuredStretchProtocol,
     ShearRampProtocol,
     StretchRampProtocol,
@@ -119,13 +120,17 @@ def test_biaxial_with_two_stretch_histories_matches_the_closed_form(law):
 
 
 def test_a_second_stretch_history_needs_the_general_biaxial_case():
-    """A stretch_2 history with a load case that fixes face 2 (uniaxial, equibiaxial, pure shear, or biaxial with a
-    ratio) is refused by name rather than ignored."""
+    """A stretch_2 or force_2_mN history with a load case that fixes face 2 (uniaxial, equibiaxial, pure shear, or
+    biaxial with a ratio) is refused by name rather than ignored."""
     t = np.linspace(0.0, 10.0, 11)
-    prot = MeasuredStretchProtocol(t, np.linspace(1, 1.2, 11), np.linspace(1, 1.1, 11))
+    by_stretch = MeasuredStretchProtocol(t, np.linspace(1, 1.2, 11), np.linspace(1, 1.1, 11))
+    by_force = MeasuredForceProtocol(t, np.linspace(0, 5, 11), np.linspace(0, 3, 11))
     for case in (Uniaxial(), Equibiaxial(), PureShear(), Biaxial(ratio=0.5)):
-        with pytest.raises(ValidationError, match=r"'biaxial' without a ratio .*got 'a second stretch history"):
-            Experiment("x", SPEC, prot, t, 0.5, tissue=_tissue("neo_hookean"), load_case=case)
+        for prot in (by_stretch, by_force):
+            if not case.controls or prot.controls not in case.controls:
+                continue
+            with pytest.raises(ValidationError, match=r"'biaxial' without a ratio .*got 'a second load history"):
+                Experiment("x", SPEC, prot, t, 0.5, tissue=_tissue("neo_hookean"), load_case=case)
 
 
 def test_force_controlled_biaxial_is_the_inverse_of_the_stretch_controlled_one():
@@ -143,6 +148,29 @@ def test_force_controlled_biaxial_is_the_inverse_of_the_stretch_controlled_one()
     lam = exp.protocol.stretch_at(T)
     np.testing.assert_allclose(u[:, 0], (lam - 1) * SPEC[0], rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(u[:, 1], (lam - 1) * SPEC[1], rtol=1e-6, atol=1e-9)
+
+
+def test_force_controlled_biaxial_with_two_load_histories_is_the_inverse():
+    """The two faces' forces of a stretch-controlled run with two stretch histories (face 1 to 1.3 with face 2 held,
+    then face 2 to 1.2), fed back as two measured force histories (a force_2_mN column), return both faces'
+    stretches (moderate K as above: 1e-6 relative, the Newton loop's step-size stop)."""
+    from dataclasses import replace
+
+    tissue = replace(_tissue("mooney_rivlin"), bulk_kpa=3000.0)
+    p = np.array(LAWS["mooney_rivlin"][1])
+    t = np.linspace(0.0, 20.0, 41)
+    lam1, lam2 = np.interp(t, [0, 10, 20], [1, 1.3, 1.3]), np.interp(t, [0, 10, 20], [1, 1, 1.2])
+    stretch = Experiment("s", SPEC, MeasuredStretchProtocol(t, lam1, lam2), t, 0.5, tissue=tissue,
+                         load_case=Biaxial())  # fmt: skip
+    forces = ForwardModel(stretch)(p)  # (n, 2) mN: face 1 and face 2
+    assert [c.column for c in stretch.channels] == ["force_mN", "force_2_mN"]
+    force = Experiment("f", SPEC, MeasuredForceProtocol(t, forces[:, 0], forces[:, 1]), t, 0.5, tissue=tissue,
+                       load_case=Biaxial())  # fmt: skip
+    u = ForwardModel(force)(p)
+    np.testing.assert_allclose(u[:, 0], (lam1 - 1) * SPEC[0], rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(u[:, 1], (lam2 - 1) * SPEC[1], rtol=1e-6, atol=1e-9)
+    ratio = Experiment("r", SPEC, MeasuredForceProtocol(t, forces[:, 0]), t, 0.5, tissue=tissue, load_case=Biaxial())
+    assert np.abs(ForwardModel(ratio)(p)[:, 1] - u[:, 1]).max() > 0.1  # without the second column: the ratio's load
 
 
 class _Measured(CreepProtocol):

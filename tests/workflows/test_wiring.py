@@ -265,3 +265,48 @@ def test_warm_start_without_a_finite_cost_is_refused_by_name():
     with pytest.raises(ValidationError, match=r"least-squares warm start on .*: expected a parameter set in the boxes"
                                               r".*got '3 fits, none with a finite cost'"):  # fmt: skip
         _ensemble_centres(problem, fits, fits[0], config_from_mapping(None))
+
+
+def test_warm_start_in_the_other_labelling_of_prony_branches():
+    """Prony branches are ordered by decreasing rate and cannot be relabelled by a permutation: least-squares optima
+    with beta1 < beta1_2 start no ensemble. With none in order the run is refused by name (what to do instead); with
+    one in order every ensemble starts there."""
+    from types import SimpleNamespace
+
+    from bayestissue.workflows import config_from_mapping, load_config
+    from bayestissue.workflows.calibration import _ensemble_centres
+    from bayestissue.workflows.problem import build_problem
+
+    root = Path(__file__).resolve().parents[2]
+    exp = load_experiment(root / "data" / "synthetic" / "tendon_relaxation.toml")
+    problem = build_problem([exp], load_config(root / "examples" / "tendon_relaxation.toml"))
+    names = problem.material.sampled_names
+    assert problem.parameters.ordered_text == "beta1 > beta1_2"
+    x = problem.material.initial.copy()
+    slow_first = x.copy()
+    slow_first[names.index("beta1")], slow_first[names.index("beta1_2")] = 0.01, 0.3
+    other = slow_first.copy()
+    other[names.index("k1_1")] *= 2.0  # a second, distinct optimum in the same wrong labelling
+    fits = [SimpleNamespace(cost=1.0, s2=1.0, x=v, cov=None) for v in (slow_first, other)]
+    config = config_from_mapping(None)
+    refused = r"least-squares warm start: expected an optimum in the ordered labelling .*got '2 plausible optima, none"
+    with pytest.raises(ValidationError, match=refused):
+        _ensemble_centres(problem, fits, fits[0], config)
+    fast_first = slow_first.copy()
+    fast_first[names.index("beta1")], fast_first[names.index("beta1_2")] = 0.3, 0.01
+    fast_first[names.index("k1_1")] *= 4.0
+    fits.append(SimpleNamespace(cost=1.5, s2=1.0, x=fast_first, cov=None))
+    centres, _ = _ensemble_centres(problem, fits, fits[0], config)
+    assert centres.shape[0] == config.sampler.n_ensembles
+    assert np.all(problem.parameters.in_order(centres))
+    np.testing.assert_allclose(centres[:, : problem.n_material], np.tile(fast_first, (centres.shape[0], 1)))
+
+    from bayestissue.inference.summary import summary_table
+
+    def meta(x):
+        nan = np.full(x.size, np.nan)
+        ls = SimpleNamespace(x=x, wald_lower=nan, wald_upper=nan, active=np.zeros(x.size, int), cost=1.0, nit=3)
+        return summary_table(problem, ls)["meta"]["parameters_ordered"]
+
+    assert meta(fast_first) == "beta1 > beta1_2"
+    assert meta(slow_first).startswith("beta1 > beta1_2 (the least-squares optimum is in another labelling")

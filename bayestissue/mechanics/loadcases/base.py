@@ -67,9 +67,11 @@ class LoadCase:
                                   f"a protocol controlling {' or '.join(self.controls)}")  # fmt: skip
 
     def check_second_history(self) -> None:
-        """Refuse a second face's own history (a ``stretch_2`` column): only the general biaxial case takes one."""
-        raise ValidationError(f"protocol mode {self.name!r}", "a second stretch history (a stretch_2 column)",
-                              "mode = 'biaxial' without a ratio for two independent stretches")  # fmt: skip
+        """Refuse a second face's own history (a ``stretch_2`` or ``force_2_mN`` column): only the general biaxial case
+        takes one."""
+        raise ValidationError(f"protocol mode {self.name!r}",
+                              "a second load history (a stretch_2 or force_2_mN column)",
+                              "mode = 'biaxial' without a ratio for two independent loads")  # fmt: skip
 
     def prescribe(self, history: np.ndarray, controls: str) -> tuple[np.ndarray, np.ndarray]:
         """``(kinds (6,), values (n_steps + 1, 6))`` from the driving history (step 0: the unloaded state)."""

@@ -4,8 +4,9 @@ Stretch control: :math:`\lambda_1(t)` the protocol's stretch, :math:`\lambda_2 =
 ratio :math:`\rho` (1: equibiaxial; 0: pure shear, planar tension, :math:`\lambda_2 = 1`), or, for the general
 biaxial case, :math:`\lambda_2(t)` a history of its own (a measured ``stretch_2`` column: non-proportional loading,
 e.g. several ratios in sequence); :math:`P_{33} = 0` and the shears stress-free. Force control: dead loads
-:math:`P_1(t)` and :math:`P_2 = \rho P_1`. Observed: the nominal stress or force on each loaded face (stretch
-control) or each face's displacement (force control); pure shear observes face 1 only.
+:math:`P_1(t)` and :math:`P_2 = \rho P_1`, or :math:`P_2(t)` of its own (a ``force_2_mN`` column). Observed: the
+nominal stress or force on each loaded face (stretch control) or each face's displacement (force control); pure
+shear observes face 1 only.
 
 Incompressible closed forms (docs/verification.md), isotropic :math:`W(I_1, I_2)`: equibiaxial
 :math:`P = 2(\lambda - \lambda^{-5})(W_1 + \lambda^2 W_2)`; pure shear :math:`P_1 = 2(\lambda - \lambda^{-3})(W_1 +
@@ -51,7 +52,7 @@ class Biaxial(LoadCase):
         kinds = np.array([kind, kind, FREE, FREE, FREE, FREE], dtype=np.int64)
         history = np.asarray(history, dtype=float)
         values = np.zeros((history.shape[0], 6))
-        if history.ndim == 2:  # the second face's own stretch history
+        if history.ndim == 2:  # the second face's own stretch or load history
             self.check_second_history()
             values[:, :2] = history
             return kinds, values
