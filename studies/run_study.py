@@ -4,7 +4,9 @@ Stages run in order, each a script in studies/ with a ``main(argv)``; the time o
 ``--quick`` is a smoke run (CI-sized chains, about 2 minutes) and writes into its own folder, never over the committed
 results; ``--full`` publication-quality chains; the default takes about 30 minutes on an idle 2-core machine
 (2026-11-25, before the laws stage: 1217 s of stages, 684 s of them calibration) and took 3002 s on 2026-11-27 on a
-shared machine running other fits beside it (calibration 1073 s, controls 416 s, T1 vs T2 368 s, laws 779 s).
+shared machine running other fits beside it (calibration 1073 s, controls 416 s, T1 vs T2 368 s, laws 779 s), and
+2190 s the same day from a fresh clone with two low-priority fits beside it (calibration 851 s, laws 594 s with
+Ogden 3, controls 247 s, T1 vs T2 197 s, micrographs 133 s, identifiability 119 s).
 
     python studies/run_study.py [--quick | --full] [--only STAGE ...]   # STAGE: a script or a stage name
 """
