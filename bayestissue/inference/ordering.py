@@ -142,25 +142,26 @@ def sort_keys(draws: np.ndarray, index) -> np.ndarray:
     return draws
 
 
+def _permutations(t2: np.ndarray, index) -> np.ndarray:
+    """``(n_sets, n_sampled)`` positions: row ``i`` of :func:`canonical` is ``t2[i, perm[i]]``. The terms of each
+    exchangeable group are sorted by decreasing key (stable); other positions map to themselves."""
+    perm = np.tile(np.arange(t2.shape[-1]), (t2.shape[0], 1))
+    for keys, terms in index:
+        if terms is None:
+            continue
+        order = np.argsort(-t2[:, keys], axis=1, kind="stable")  # (n_sets, n_terms): term k takes term order[k]
+        perm[:, terms.ravel()] = terms[order].reshape(t2.shape[0], -1)
+    return perm
+
+
 def relabelling(theta: np.ndarray, index) -> np.ndarray:
     """The positions ``perm`` with ``canonical(theta) == theta[perm]`` for one point ``theta`` (n_sampled,)."""
-    perm = np.arange(theta.shape[-1])
-    for keys, terms in index:
-        if terms is not None:
-            order = np.argsort(-theta[keys], kind="stable")
-            perm[terms.ravel()] = terms[order].ravel()
-    return perm
+    return _permutations(np.atleast_2d(theta), index)[0]
 
 
 def canonical(theta: np.ndarray, index) -> np.ndarray:
     """``theta`` (..., n_sampled) with the terms of each exchangeable group permuted so that their keys decrease (a
     point of another labelling has the same likelihood); other groups are left as they are."""
-    theta = np.array(theta, dtype=float, copy=True)
+    theta = np.asarray(theta, dtype=float)
     t2 = theta.reshape(-1, theta.shape[-1])
-    for keys, terms in index:
-        if terms is None:
-            continue
-        order = np.argsort(-t2[:, keys], axis=1, kind="stable")  # (n_sets, n_terms): term k takes term order[k]
-        source = terms[order]  # (n_sets, n_terms, term_size)
-        t2[:, terms.ravel()] = np.take_along_axis(t2, source.reshape(t2.shape[0], -1), axis=1)
-    return t2.reshape(theta.shape)
+    return np.take_along_axis(t2, _permutations(t2, index), axis=1).reshape(theta.shape)

@@ -427,9 +427,10 @@ class ParameterSet:
         with np.errstate(divide="ignore", invalid="ignore"):
             logx = np.log(np.where(is_lu, np.abs(theta), 1.0))
         total = np.sum(const - np.where(is_lu, logx, 0.0), axis=-1)
-        for keys, _ in self._order_index:  # one labelling, density n! there (OrderedGroup)
-            total = total + math.lgamma(keys.size + 1)
-        return np.where(inside & self.in_order(theta), total, -np.inf)
+        if self._order_index:  # one labelling, density n! there (OrderedGroup); nothing to do on the paper's model
+            inside &= in_order(theta, self._order_index)
+            total = total + sum(math.lgamma(keys.size + 1) for keys, _ in self._order_index)
+        return np.where(inside, total, -np.inf)
 
     def in_order(self, theta) -> np.ndarray:
         """Whether the keys of every ordered group decrease strictly (:class:`OrderedGroup`); ``theta.shape[:-1]``."""
