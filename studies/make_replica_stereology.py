@@ -133,6 +133,8 @@ def main(argv=None) -> int:
             "point_estimate_axes": np.round(info["axes"], 4).tolist(),
             "point_estimate_length_shares": np.round(info["shares"], 4).tolist(),
             "cone95_deg": np.round(info["cone_deg"], 2).tolist(),
+            "dispersion": "disp_fibre1..3: GOH dispersion (1 - A(k)) / 2 of each family's Watson concentration k",
+            "point_estimate_dispersion": np.round(info["dispersion"], 4).tolist(),
         },
     )
     print(f"counts: seed {used_seed}, V_V(SMC) = {cnt['vv']:.4f}, CE(m=1) = {cnt['ce']:.4f}")

@@ -44,6 +44,13 @@ def register(subparsers) -> None:
         help="smoke run in about a minute: 2 starts, 300 steps, short adaptation (emcee) or small capped runs "
         "(nested); not converged",
     )
+    p.add_argument(
+        "--replicates",
+        metavar="TABLE",
+        help="stereology replicate table (bayestissue stereology replicates): a cut posterior, one calibration per "
+        "chosen row with its directions, fractions and fibre dispersions, pooled (docs/stereology.md)",
+    )
+    p.add_argument("--n-replicates", type=int, default=4, help="rows of --replicates used (default 4)")
     p.add_argument("--no-sample", action="store_true", help="least squares only")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -82,7 +89,10 @@ def run(args) -> int:
         over.update(n_starts=2, ls_max_nfev=200, sampler=QUICK_SAMPLER, nested=QUICK_NESTED)
     config = load_config(args.config, **over)
     experiments = [load_experiment(p) for p in args.experiments]
+    reps = _replicates(args, config, experiments) if args.replicates else None
     data_paths = [Path(p) for e in experiments for p in (e.source, e.data_file) if p is not None]
+    if reps is not None:
+        data_paths.append(Path(args.replicates))
     prov = provenance(seed=config.seed, config_path=args.config, data_paths=data_paths)
     out = Path(args.out)
     progress, close_bar = _progress(config, enabled=config.sample and not args.no_progress)
@@ -94,12 +104,21 @@ def run(args) -> int:
     else:
         stage = f"least squares, then {config.sampler.n_ensembles} ensembles"
     manifest = run_manifest(config, experiments, config_path=args.config)
+    if reps is not None:
+        from bayestissue.io.results import file_sha256
+
+        manifest["replicates"] = {"file": str(args.replicates), "file_sha256": file_sha256(args.replicates),
+                                  "n_replicates": args.n_replicates}  # fmt: skip
     with open_run_directory(out, manifest, resume=args.resume, overwrite=args.overwrite) as run_dir:
         for note in run_dir.notes:
             print(note)
         if args.resume:
             print(_resume_line(run_dir, config.engine))
         print(f"calibrating on {names}: {stage}")
+        if reps is not None:
+            _run_cut(args, experiments, config, reps, out, progress, close_bar, prov)
+            print(f"wrote {out}/ in {time.perf_counter() - t0:.1f} s")
+            return 0
         try:
             outcome = run_calibration(
                 experiments,
@@ -115,6 +134,45 @@ def run(args) -> int:
         _report(outcome, config, names, out, args.no_figures)
     print(f"wrote {out}/ in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def _replicates(args, config, experiments) -> dict:
+    """The replicate table, checked before any work: readable, enough rows, a tissue it fits (three families) and,
+    for a fibre law with a dispersion, the dispersion columns."""
+    from bayestissue._validation import ValidationError
+    from bayestissue.io.stereology_files import read_replicates
+    from bayestissue.workflows.cut import choose_replicates, replicate_experiments, replicate_fixed
+
+    if args.n_replicates < 2:
+        raise ValidationError("--n-replicates", args.n_replicates, "an integer >= 2 (a cut averages several rows)")
+    if not config.sample:
+        raise ValidationError("--replicates", "with --no-sample", "a sampled run (the cut pools posterior draws)")
+    reps = read_replicates(args.replicates)
+    n_rows = len(reps["phi_matrix"])
+    if n_rows < 2:
+        raise ValidationError(f"{args.replicates}: rows", n_rows, ">= 2 replicates")
+    row = choose_replicates(n_rows, args.n_replicates, config.seed)[0]
+    for e in experiments:
+        try:
+            replicate_experiments([e], reps, row)
+            replicate_fixed(e.tissue, reps, row)
+        except ValidationError as exc:
+            raise ValidationError(f"{e.source}: {exc.field}", exc.value, exc.expected, exc.hint) from exc
+    return reps
+
+
+def _run_cut(args, experiments, config, reps, out, progress, close_bar, prov) -> None:
+    from bayestissue.workflows.cut import run_cut_calibration, write_cut_summary
+
+    try:
+        cut = run_cut_calibration(experiments, config, reps, n_replicates=args.n_replicates, out_dir=out,
+                                  resume=args.resume, progress=progress, provenance=prov,
+                                  say=lambda line: print(line, flush=True))  # fmt: skip
+    finally:
+        close_bar()
+    for r, o in zip(cut.rows, cut.outcomes, strict=True):
+        print(f"replicate {r + 1}: {o.report.verdict()}; {o.table['meta']['fit_check']}")
+    print(write_cut_summary(cut, out, figures=not args.no_figures))
 
 
 def _progress(config, *, enabled: bool):

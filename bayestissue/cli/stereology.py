@@ -227,6 +227,10 @@ def _replicates(args) -> int:
         "seed": args.seed,
         "cone95_deg": np.round(info["cone_deg"], 2).tolist(),
     }
+    if "disp_fibre1" in cols:
+        meta["dispersion"] = ("disp_fibre1..3: GOH dispersion kappa = (1 - A(k)) / 2 of each family's Watson "
+                              "concentration k (Gasser, Ogden & Holzapfel 2006)")  # fmt: skip
+        meta["point_estimate_dispersion"] = np.round(info["dispersion"], 4).tolist()
     synth = [
         m["meta"].get("synthetic")
         for m in (read_point_counts(args.counts), read_line_system(args.lines))
@@ -241,5 +245,10 @@ def _replicates(args) -> int:
     print(f"95 % cones (deg): {np.round(info['cone_deg'], 2).tolist()}")
     sd = {k: float(np.std(cols[k], ddof=1)) for k in ("phi_smc", "phi_ecm")}
     print(f"replicate sd: {json.dumps(sd)}")
+    if "disp_fibre1" in cols:
+        d = np.stack([cols[f"disp_fibre{k}"] for k in (1, 2, 3)], axis=1)
+        lo, hi = np.quantile(d, [0.025, 0.975], axis=0)
+        print("fibre dispersion kappa (GOH) of the Watson concentrations, point [95 % of replicates]: " + ", ".join(
+            f"v{k + 1} {info['dispersion'][k]:.4f} [{lo[k]:.4f}, {hi[k]:.4f}]" for k in range(3)))  # fmt: skip
     print(f"wrote {args.n_boot} replicates to {args.out}")
     return 0

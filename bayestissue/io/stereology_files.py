@@ -34,7 +34,14 @@ Replicate table (``data/stereology_replicates.csv``): the contract with the mech
       [0.9369, -0.3420, 0], x tilted toward -y) by an optimal axial assignment, with the sign chosen
       so that v_k . paper_v_k >= 0.
 
-    The mechanics takes ``phi_matrix``, ``phi_fibre1..3`` and ``v1..v3`` (:func:`read_replicates`).
+    - optional ``disp_fibre1``, ``disp_fibre2``, ``disp_fibre3``: each family's GOH dispersion
+      kappa = (1 - A(k))/2 of its Watson concentration k (Gasser, Ogden & Holzapfel 2006;
+      :func:`bayestissue.stereology.axial.watson_goh_dispersion`), in [0, 1/3]; written when the
+      directions come from a Watson mixture. A fibre law with a dispersion parameter takes it from here
+      (:func:`bayestissue.analyses.propagate.replicate_dispersion`).
+
+    The mechanics takes ``phi_matrix``, ``phi_fibre1..3``, ``v1..v3`` and, where present,
+    ``disp_fibre1..3`` (:func:`read_replicates`).
 """
 
 from __future__ import annotations
@@ -49,6 +56,7 @@ from bayestissue.io.toml_files import read_toml
 
 __all__ = [
     "REPLICATE_COLUMNS",
+    "DISPERSION_COLUMNS",
     "read_point_counts",
     "write_point_counts",
     "read_line_system",
@@ -68,6 +76,8 @@ REPLICATE_COLUMNS = (
     "phi_fibre3",
     *(f"v{k}_{c}" for k in (1, 2, 3) for c in "xyz"),
 )
+#: Optional columns of the replicate table: the families' GOH dispersions (module docstring).
+DISPERSION_COLUMNS = ("disp_fibre1", "disp_fibre2", "disp_fibre3")
 #: The largest point count of one component on one section: a grid of 10^7 points (a 3162 x 3162 grid) is far
 #: beyond any counted section; larger values are typing or export errors (1e300 would otherwise give V_V = 1).
 MAX_POINTS = 1e7
@@ -209,11 +219,13 @@ def write_line_system(
 
 
 def write_replicates(path: str | Path, columns: dict, *, meta: dict | None = None) -> Path:
-    """Write the replicate table (columns exactly :data:`REPLICATE_COLUMNS`, in order)."""
+    """Write the replicate table (columns :data:`REPLICATE_COLUMNS` in order, then :data:`DISPERSION_COLUMNS` if
+    ``columns`` has them)."""
     missing = [c for c in REPLICATE_COLUMNS if c not in columns]
     if missing:
         raise ValidationError("replicate columns", sorted(columns), f"all of {list(REPLICATE_COLUMNS)}")
-    return write_table(path, {c: columns[c] for c in REPLICATE_COLUMNS}, meta=meta)
+    names = REPLICATE_COLUMNS + (DISPERSION_COLUMNS if DISPERSION_COLUMNS[0] in columns else ())
+    return write_table(path, {c: columns[c] for c in names}, meta=meta)
 
 
 def read_replicates(path: str | Path) -> dict:
@@ -222,12 +234,13 @@ def read_replicates(path: str | Path) -> dict:
     Returns
     -------
     dict with ``phi_matrix`` (n,), ``phi_fibres`` (n, 3), ``directions`` (n, 3, 3) (row k = unit
-    v_k), ``phi_smc`` (n,), ``phi_ecm`` (n,), ``split`` (str) and ``meta``.
+    v_k), ``phi_smc`` (n,), ``phi_ecm`` (n,), ``dispersion`` ((n, 3) from ``disp_fibre1..3``, or None
+    without them), ``split`` (str) and ``meta``.
 
     Raises
     ------
-    ValidationError for missing columns, fractions outside [0, 1] or non-unit directions (|v| - 1 >
-    1e-6).
+    ValidationError for missing columns, fractions outside [0, 1], non-unit directions (|v| - 1 >
+    1e-6), some but not all dispersion columns, or a dispersion outside [0, 1/3].
     """
     cols, meta = read_table(path, required=REPLICATE_COLUMNS, numeric=True)
     phi_f = np.stack([cols[f"phi_fibre{k}"] for k in (1, 2, 3)], axis=1)
@@ -239,12 +252,24 @@ def read_replicates(path: str | Path) -> dict:
     if np.any(np.abs(norm - 1) > 1e-6):
         i, k = np.argwhere(np.abs(norm - 1) > 1e-6)[0]
         raise ValidationError(f"v{k + 1} of replicate row {i + 1}", D[i, k].tolist(), "a unit vector")
+    disp = None
+    have = [c for c in DISPERSION_COLUMNS if c in cols]
+    if have and len(have) < 3:
+        raise ValidationError(f"{path}: dispersion columns", have, f"all of {list(DISPERSION_COLUMNS)} or none")
+    if have:
+        disp = np.stack([cols[c] for c in DISPERSION_COLUMNS], axis=1)
+        bad = np.argwhere(~(np.isfinite(disp) & (disp >= 0) & (disp <= 1.0 / 3.0)))
+        if bad.size:
+            i, k = bad[0]
+            raise ValidationError(f"{path}: disp_fibre{k + 1} of replicate row {i + 1}", float(disp[i, k]),
+                                  "a GOH dispersion in [0, 1/3]")  # fmt: skip
     return {
         "phi_matrix": cols["phi_matrix"],
         "phi_fibres": phi_f,
         "directions": D,
         "phi_smc": cols["phi_smc"],
         "phi_ecm": cols["phi_ecm"],
+        "dispersion": disp,
         "split": meta.get("split", "unknown"),
         "meta": meta,
     }

@@ -19,6 +19,7 @@ __all__ = [
     "plot_ls_history",
     "plot_waterfall",
     "calibration_figures",
+    "cut_marginals",
 ]
 
 
@@ -337,3 +338,37 @@ def calibration_figures(outcome) -> dict:
             unit=e.unit,
         )
     return figs
+
+
+def cut_marginals(cut, *, bins: int = 40):
+    """The cut posterior (:mod:`bayestissue.workflows.cut`): each stereology replicate's marginal of every sampled
+    parameter (thin, colour = replicate) and the pooled one (black); log10 for log-scaled parameters. Replicates
+    that sit apart show how much of the pooled width the stereology's uncertainty makes."""
+    import matplotlib.pyplot as plt
+
+    problem = cut.outcomes[0].problem
+    ndim = len(cut.names)
+    ncol = min(4, ndim)
+    nrow = int(np.ceil(ndim / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.2 * ncol, 2.4 * nrow), squeeze=False)
+    axes = axes.ravel()
+    pooled, labels = _display(problem, cut.pooled, range(ndim))
+    within = [_display(problem, w, range(ndim))[0] for w in cut.within]
+    colors = plt.cm.tab10(np.arange(len(within)) % 10)
+    for j in range(ndim):
+        lo, hi = np.quantile(pooled[:, j], [0.001, 0.999])
+        edges = np.linspace(lo, hi if hi > lo else lo + 1.0, bins + 1)
+        for k, w in enumerate(within):
+            axes[j].hist(w[:, j], bins=edges, density=True, histtype="step", color=colors[k], lw=0.9)
+        axes[j].hist(pooled[:, j], bins=edges, density=True, histtype="step", color="k", lw=1.8)
+        axes[j].set_xlabel(labels[j], fontsize=9)
+        axes[j].set_yticks([])
+    for ax in axes[ndim:]:
+        ax.set_visible(False)
+    held = "; ".join(
+        f"rep {r + 1}: " + (", ".join(f"{k} {v:.3f}" for k, v in h.items()) or "-")
+        for r, h in zip(cut.rows, cut.fixed, strict=True)
+    )
+    fig.suptitle(f"cut posterior: replicates (colour) and pooled (black)\nheld: {held}", fontsize=9)
+    fig.tight_layout()
+    return fig

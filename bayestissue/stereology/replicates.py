@@ -25,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 
 from bayestissue._validation import ValidationError
-from bayestissue.io.stereology_files import REPLICATE_COLUMNS
+from bayestissue.io.stereology_files import DISPERSION_COLUMNS, REPLICATE_COLUMNS
 from bayestissue.paper import PAPER_DIRECTIONS
-from bayestissue.stereology.axial import axial_angle, fit_watson_mixture
+from bayestissue.stereology.axial import axial_angle, fit_watson_mixture, watson_goh_dispersion
 from bayestissue.stereology.lines import LineSystem
 from bayestissue.stereology.point_counts import PointCounts
 from bayestissue.stereology.rose import preferential_directions, rose_of_directions
@@ -84,7 +84,8 @@ def fit_fibre_directions(
     n: int = 15,
     init_axes=None,
     rng=None,
-) -> tuple[np.ndarray, np.ndarray]:
+    with_concentrations: bool = False,
+) -> tuple[np.ndarray, ...]:
     """Three fibre axes and their length shares from (a subset of) a line system.
 
     ``method="watson"``: three-component Watson mixture with length weights (axes, weights);
@@ -94,7 +95,8 @@ def fit_fibre_directions(
     ``method="rose"``: the top three directions of the n x n equal-area rose (principal axes of the
     merged top cells, shares = their lengths normalised over the three).
 
-    Returns axes (3, 3) and shares (3,).
+    Returns axes (3, 3) and shares (3,); with ``with_concentrations`` also the families' Watson concentrations
+    (3,) (NaN for ``"rose"``, which fits no concentration).
     """
     if method not in _METHODS:
         raise ValidationError("method", method, f"one of {list(_METHODS)}")
@@ -106,12 +108,14 @@ def fit_fibre_directions(
             mix = fit_watson_mixture(d, 3, weights=w, n_init=5, background=bg, rng=rng)
         else:
             mix = fit_watson_mixture(d, 3, weights=w, init_axes=init_axes, n_init=0, background=bg, rng=rng)
-        return mix.axes, mix.weights / mix.weights.sum()
+        out = (mix.axes, mix.weights / mix.weights.sum(), mix.kappas)
+        return out if with_concentrations else out[:2]
     top = preferential_directions(rose_of_directions(d, w, n=n), k=3)
     if len(top) < 3:
         raise ValidationError("line system", f"{len(top)} occupied directions", ">= 3 distinct directions")
     L = np.array([c["length_um"] for c in top])
-    return np.array([c["vector"] for c in top]), L / L.sum()
+    out = (np.array([c["vector"] for c in top]), L / L.sum(), np.full(3, np.nan))
+    return out if with_concentrations else out[:2]
 
 
 def direction_bootstrap(
@@ -126,24 +130,34 @@ def direction_bootstrap(
     switching, signs a . axes_k >= 0), ``replicate_shares`` (n_boot, 3) permuted alike, ``cone_deg``
     (3,) 95 % cone half-angles and ``angle_to_paper_deg`` (3,); ``lengths_um`` (3,) the families'
     line lengths (share x total), ``replicate_lengths_um`` (n_boot, 3) and their 95 % intervals
-    ``length_ci_um`` (2, 3). ``progress(done, n_boot)`` after each replicate (a refit of the directions).
+    ``length_ci_um`` (2, 3). The Watson methods also give each family's concentration and its GOH dispersion
+    (:func:`~bayestissue.stereology.axial.watson_goh_dispersion`): ``concentrations`` and ``dispersion`` (3,),
+    ``replicate_concentrations`` and ``replicate_dispersion`` (n_boot, 3), permuted with the axes (NaN for
+    ``"rose"``). ``progress(done, n_boot)`` after each replicate (a refit of the directions).
     """
     rng = np.random.default_rng(rng)
-    axes, shares = fit_fibre_directions(lines, method=method, n=n, rng=rng)
+    axes, shares, conc = fit_fibre_directions(lines, method=method, n=n, rng=rng, with_concentrations=True)
     axes, order = align_axes(axes, PAPER_DIRECTIONS)
-    shares = shares[order]
+    shares, conc = shares[order], conc[order]
 
     totals = []
 
-    def est(idx):
+    def est(idx):  # the shares and concentrations travel together through the bootstrap (columns 0 and 1)
         totals.append(lines.lengths[idx].sum())
-        return fit_fibre_directions(lines, idx, method=method, n=n, init_axes=axes, rng=rng)
+        a, s, k = fit_fibre_directions(lines, idx, method=method, n=n, init_axes=axes, rng=rng,
+                                       with_concentrations=True)  # fmt: skip
+        return a, np.column_stack([s, k])
 
-    rep_axes, rep_shares = bootstrap_cells(lines.cell, est, n_boot=n_boot, rng=rng, progress=progress)
+    rep_axes, rep_values = bootstrap_cells(lines.cell, est, n_boot=n_boot, rng=rng, progress=progress)
     rep_axes, rep_order = align_axes(rep_axes, axes)
-    rep_shares = np.take_along_axis(rep_shares, rep_order, axis=1)
+    rep_values = np.take_along_axis(rep_values, rep_order[..., None], axis=1)
+    rep_shares, rep_conc = rep_values[..., 0], rep_values[..., 1]
     rep_lengths = rep_shares * np.asarray(totals)[:, None]
     return {
+        "concentrations": conc,
+        "dispersion": watson_goh_dispersion(conc),
+        "replicate_concentrations": rep_conc,
+        "replicate_dispersion": watson_goh_dispersion(rep_conc),
         "lengths_um": shares * lines.total_length_um,
         "replicate_lengths_um": rep_lengths,
         "length_ci_um": np.quantile(rep_lengths, [0.025, 0.975], axis=0),
@@ -187,6 +201,7 @@ def replicate_table(
     *,
     split: str = "paper",
     shares=None,
+    dispersion=None,
     reference=PAPER_DIRECTIONS,
 ) -> dict[str, np.ndarray]:
     """Assemble the replicate table handed to the mechanics (columns :data:`REPLICATE_COLUMNS`).
@@ -199,6 +214,8 @@ def replicate_table(
         v2, v3), so family k matches paper v_k and v_k . paper_v_k >= 0.
     split : ``"paper"`` or ``"length"`` (then ``shares`` (B, 3) in the order of ``directions``,
         permuted with the axes), see :func:`fibre_fraction_split`.
+    dispersion : optional (B, 3) GOH dispersion of each family in the order of ``directions`` (permuted with the
+        axes): the columns ``disp_fibre1..3`` (:data:`~bayestissue.io.stereology_files.DISPERSION_COLUMNS`).
 
     Returns
     -------
@@ -234,6 +251,12 @@ def replicate_table(
     for k in range(3):
         for j, c in enumerate("xyz"):
             cols[f"v{k + 1}_{c}"] = aligned[:, k, j]
+    if dispersion is not None:
+        disp = np.take_along_axis(np.asarray(dispersion, dtype=float).reshape(B, 3), order, axis=1)
+        if np.any(~np.isfinite(disp)) or np.any(disp < 0) or np.any(disp > 1.0 / 3.0):
+            raise ValidationError("dispersion", "a value outside [0, 1/3]", "GOH dispersions in [0, 1/3]")
+        for k in range(3):
+            cols[DISPERSION_COLUMNS[k]] = disp[:, k]
     return cols
 
 
@@ -274,12 +297,15 @@ def stereology_replicates(
         dirs["replicate_axes"],
         split=split,
         shares=dirs["replicate_shares"],
+        dispersion=None if method == "rose" else dirs["replicate_dispersion"],
         reference=PAPER_DIRECTIONS,
     )
     info = {
         "fractions": counts.volume_fractions(),
         "axes": dirs["axes"],
         "shares": dirs["shares"],
+        "concentrations": dirs["concentrations"],
+        "dispersion": dirs["dispersion"],
         "cone_deg": dirs["cone_deg"],
         "angle_to_paper_deg": dirs["angle_to_paper_deg"],
         "split": split,

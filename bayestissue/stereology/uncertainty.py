@@ -202,14 +202,15 @@ def bootstrap_cells(
     Parameters
     ----------
     cell_ids : (n_segments,) id of the traced cell of each segment.
-    estimator : ``f(segment_indices) -> (axes (k, 3), shares (k,))`` fitting the chosen segments
-        (with repeats, so resampled cells count as often as drawn).
+    estimator : ``f(segment_indices) -> (axes (k, 3), values (k,) or (k, m))`` fitting the chosen segments
+        (with repeats, so resampled cells count as often as drawn); the values are per family (the length shares,
+        say, with further columns such as the families' concentrations).
     n_boot : number of replicates. rng : seed or Generator.
     progress : ``progress(done, n_boot)`` after each replicate.
 
     Returns
     -------
-    axes (n_boot, k, 3) and shares (n_boot, k), in the estimator's order (align them with
+    axes (n_boot, k, 3) and values (n_boot, k[, m]), in the estimator's order (align them with
     :func:`align_axes`).
     """
     ids = np.asarray(cell_ids)

@@ -84,13 +84,17 @@ def paper_parameter_set(n_fibres: int = 3, *, prior: str = "default", fixed_inpu
 
 def reference_values(experiment) -> dict[str, np.ndarray]:
     """Known parameter values for an experiment: the paper's Table 1 result (``paper``) for T1/T2 and the
-    generating values of a synthetic replica (``generating``, from the data file header)."""
+    generating values of a synthetic replica (``generating``, from the data file header), each only where it is in
+    the experiment's model (the data fitted with other laws have no values to compare with)."""
     out = {}
-    if experiment.name in PAPER_PARAMETERS:
+    if experiment.name in PAPER_PARAMETERS and experiment.tissue.is_paper_model:
         out["paper"] = np.asarray(PAPER_PARAMETERS[experiment.name], dtype=float)
     gen = (experiment.meta or {}).get("generating_parameters")
     if gen:
-        out["generating"] = parse_parameters(re.sub(r"\s+", "", str(gen)), experiment.tissue.parameters)
+        try:
+            out["generating"] = parse_parameters(re.sub(r"\s+", "", str(gen)), experiment.tissue.parameters)
+        except ValidationError:  # generated under other laws: their names are not this model's
+            return out
         if experiment.noise_sd_mm is not None:
             out["noise_sd"] = float(experiment.noise_sd_mm)
     return out

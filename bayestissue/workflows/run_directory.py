@@ -115,6 +115,11 @@ def manifest_differences(old: Mapping, new: Mapping) -> list[str]:
                     diffs.append(
                         f"{x['experiment']}'s {role.replace('_', ' ')} {x.get(role)} -> {y.get(role)} (content changed)"
                     )
+    ra, rb = old.get("replicates"), new.get("replicates")
+    if (ra or {}).get("file_sha256") != (rb or {}).get("file_sha256") or (ra or {}).get("n_replicates") != (
+        rb or {}
+    ).get("n_replicates"):
+        diffs.append(f"the stereology replicates {ra} -> {rb}")
     fa, fb = _flat(old.get("config", {})), _flat(new.get("config", {}))
     for key in sorted(set(fa) | set(fb)):
         if key not in RESUMABLE and fa.get(key) != fb.get(key):
@@ -277,5 +282,7 @@ def _check_fresh(run: RunDirectory, overwrite: bool) -> None:
             f"it holds {shown}: --resume continues that run, --overwrite replaces it",
         )
     shutil.rmtree(run.checkpoints, ignore_errors=True)
+    for sub in run.path.glob("replicate_*/"):  # a cut posterior's runs (bayestissue.workflows.cut)
+        shutil.rmtree(sub, ignore_errors=True)
     (run.path / MANIFEST).unlink(missing_ok=True)
     run.notes.append(f"--overwrite: removed the previous run's checkpoints and manifest in {run.path}")

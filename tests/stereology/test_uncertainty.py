@@ -15,6 +15,7 @@ from bayestissue.stereology.axial import (
 from bayestissue.stereology.lines import LineSystem
 from bayestissue.stereology.point_counts import PointCounts
 from bayestissue.stereology.replicates import (
+    DISPERSION_COLUMNS,
     REPLICATE_COLUMNS,
     direction_bootstrap,
     fibre_fraction_split,
@@ -204,7 +205,14 @@ def test_stereology_replicates_pipeline():
     counts, lines = _small_data()
     for method in ("watson", "rose"):
         cols, info = stereology_replicates(counts, lines, n_boot=25, method=method, split="length", rng=1)
-        assert tuple(cols) == REPLICATE_COLUMNS and cols["replicate"].size == 25
+        # the Watson mixture also gives each family's dispersion; the rose fits no concentration
+        extra = DISPERSION_COLUMNS if method == "watson" else ()
+        assert tuple(cols) == REPLICATE_COLUMNS + extra and cols["replicate"].size == 25
+        if method == "watson":
+            d = np.stack([cols[c] for c in DISPERSION_COLUMNS], axis=1)
+            assert np.all((d > 0) & (d < 1 / 3)) and np.all(np.isfinite(info["dispersion"]))
+        else:
+            assert np.all(np.isnan(info["dispersion"]))
         assert np.all(info["angle_to_paper_deg"] < 8)
         phi_f = np.stack([cols[f"phi_fibre{k}"] for k in (1, 2, 3)], axis=1)
         np.testing.assert_allclose(phi_f.sum(axis=1), cols["phi_smc"])
