@@ -90,6 +90,10 @@ def run(args) -> int:
     config = load_config(args.config, **over)
     experiments = [load_experiment(p) for p in args.experiments]
     reps = _replicates(args, config, experiments) if args.replicates else None
+    if args.config is None and config.sample and all(e.tissue.is_paper_model for e in experiments):
+        print("note: no --config: sampling the paper's 11-parameter model, which does not converge on a creep or a "
+              "ramp (README, Calibration); examples/creep_T1.toml and examples/ramp_T2.toml tie the mirror families "
+              "and converge")  # fmt: skip
     data_paths = [Path(p) for e in experiments for p in (e.source, e.data_file) if p is not None]
     if reps is not None:
         data_paths.append(Path(args.replicates))
@@ -251,6 +255,8 @@ def _report(outcome, config, names, out, no_figures) -> None:
             f"({rep.ess_per_second():.2f} ESS/s), failed forward solves: "
             f"{outcome.sample.n_failed} of {outcome.sample.n_evaluations}"
         )
+    if outcome.tissue_terms is not None:
+        print(outcome.tissue_terms.markdown())
     if not no_figures:
         import matplotlib
 

@@ -6,11 +6,14 @@ Steps of :func:`run_calibration` (used by ``bayestissue fit`` and ``studies/cali
    Table 1 boxes and the configured priors, fixed and sampled subsets; one experiment term per experiment
    (shared material parameters, one noise model each);
 2. the paper's least squares from its initial guess (trust-region reflective, ``x_scale`` = initial guess);
-3. multi-start least squares (Latin hypercube in the scaled box) and clustering of the optima;
+3. multi-start least squares (Latin hypercube in the scaled box) and clustering of the optima; with ties or fixed
+   values, their likelihood-ratio test against the model with them released
+   (:mod:`bayestissue.workflows.constraints`);
 4. emcee (``[sampler] engine``, the default): the sampler's coordinates adapted to the best optimum, ensembles
    started at distinct plausible optima (Laplace scatter), automatic length, diagnostics; or nested: independent
    nautilus runs from the prior, the evidence, diagnostics (:mod:`bayestissue.inference.evidence`);
-5. ``InferenceData`` with provenance and the summary table (written when ``out_dir`` is given).
+5. ``InferenceData`` with provenance, the summary table and the tissue terms (moduli, stresses, relaxation with
+   intervals: :mod:`bayestissue.workflows.tissue_terms`), written when ``out_dir`` is given.
 """
 
 from __future__ import annotations
@@ -44,7 +47,9 @@ from bayestissue.inference.posterior import to_inference_data
 from bayestissue.inference.sampling.nested import peak_log_likelihood
 from bayestissue.inference.summary import summary_table, table_markdown
 from bayestissue.workflows.config import CalibrationConfig
+from bayestissue.workflows.constraints import ConstraintTest, constraint_test
 from bayestissue.workflows.problem import build_problem, reference_values
+from bayestissue.workflows.tissue_terms import TissueTerms, tissue_terms
 
 __all__ = ["CalibrationOutcome", "run_calibration"]
 
@@ -66,6 +71,8 @@ class CalibrationOutcome:
     references: dict = field(default_factory=dict)
     times_s: dict = field(default_factory=dict)
     files: dict = field(default_factory=dict)
+    constraints: ConstraintTest | None = None
+    tissue_terms: TissueTerms | None = None
 
 
 def run_calibration(
@@ -126,8 +133,15 @@ def run_calibration(
     best = min([paper_fit, multi.best], key=lambda r: r.cost)
     refs = {e.name: reference_values(e) for e in experiments}
     outcome = CalibrationOutcome(problem, config, paper_fit, multi, best, references=refs, times_s=times)
+    t0 = time.perf_counter()
+    outcome.constraints = constraint_test(experiments, config, problem, best)
+    times["constraint_test"] = time.perf_counter() - t0
+    if outcome.constraints is not None:
+        say(outcome.constraints.text())
     if not config.sample:
         outcome.table = summary_table(problem, best, None, None, references=refs)
+        _add_constraints(outcome)
+        outcome.tissue_terms = _tissue_terms(outcome, experiments, say)
         _write(outcome, out_dir)
         return outcome
     ckpt = None if out_dir is None else Path(out_dir) / "checkpoints"
@@ -182,8 +196,32 @@ def run_calibration(
     outcome.sample, outcome.report, outcome.idata = sample, report, idata
     outcome.table = summary_table(problem, best, sample, report, references=refs)
     outcome.table["meta"]["fit_check"] = idata.posterior.attrs["fit_check"]
+    _add_constraints(outcome)
+    outcome.tissue_terms = _tissue_terms(outcome, experiments, say)
     _write(outcome, out_dir)
     return outcome
+
+
+def _tissue_terms(outcome: CalibrationOutcome, experiments, say) -> TissueTerms | None:
+    """The tissue terms of the first experiment's tissue (:mod:`bayestissue.workflows.tissue_terms`) over up to 400
+    posterior draws, or at the least-squares optimum without sampling; None (said) where they do not apply."""
+    problem = outcome.problem
+    if outcome.sample is not None:
+        d = outcome.sample.flat()[:, : problem.n_material]
+        d = d[np.linspace(0, d.shape[0] - 1, min(400, d.shape[0])).astype(int)]
+    else:
+        d = outcome.best.x[None, :]
+    try:
+        return tissue_terms(experiments[0], problem.material.expand(d))
+    except ValidationError as exc:
+        say(f"tissue terms: not computed ({exc})")
+        return None
+
+
+def _add_constraints(outcome: CalibrationOutcome) -> None:
+    """The ties' and fixed values' likelihood-ratio test, as a line of the summary (where there are any)."""
+    if outcome.constraints is not None:
+        outcome.table["meta"]["constraint_test"] = outcome.constraints.text()
 
 
 def _ensemble_centres(problem, fits, best, config):
@@ -237,5 +275,8 @@ def _write(outcome: CalibrationOutcome, out_dir) -> None:
     (out / "summary.md").write_text(table_markdown(outcome.table))
     outcome.files["summary_csv"] = out / "summary.csv"
     outcome.files["summary_md"] = out / "summary.md"
+    if outcome.tissue_terms is not None:
+        (out / "tissue_terms.md").write_text(outcome.tissue_terms.markdown())
+        outcome.files["tissue_terms"] = out / "tissue_terms.md"
     if outcome.idata is not None:
         outcome.files["posterior"] = write_inference_data(outcome.idata, out / "posterior.nc")

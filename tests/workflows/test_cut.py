@@ -152,6 +152,10 @@ def test_cut_summary_files(short_cut, tmp_path):
     assert sorted(p.parent.name for p in out.glob("replicate_*/posterior.nc")) == sorted(
         f"replicate_{r + 1}" for r in cut.rows
     )
+    # and its tissue terms over the posterior draws (bayestissue.workflows.tissue_terms)
+    for r, o in zip(cut.rows, cut.outcomes, strict=True):
+        assert len(o.tissue_terms.values["secant modulus (equilibrium)"][1]) > 100
+        assert "90 % interval over" in (out / f"replicate_{r + 1}" / "tissue_terms.md").read_text()
 
 
 def _refused(capsys, argv, pattern):
