@@ -262,3 +262,26 @@ def test_direction_rows_are_named_by_number(t1, capsys, rows, pattern):
     """A short row gave numpy's 'inhomogeneous shape'; a NaN 'a list of [x, y, z] rows' (issue 34)."""
     _edit(t1 / "T1.toml", "[data]", f"[tissue]\ndirections = {rows}\n\n[data]")
     _refused(capsys, ["simulate", str(t1 / "T1.toml")], pattern)
+
+
+def test_fit_refuses_a_cut_it_cannot_run(t1, tmp_path, capsys):
+    """fit --replicates: a dispersed fibre law with a table without dispersions, one replicate, no sampling."""
+    from bayestissue.io.stereology_files import write_replicates
+    from bayestissue.stereology import LineSystem, PointCounts, stereology_replicates
+
+    cols, _ = stereology_replicates(PointCounts.from_file(DATA / "stereology_counts.csv"),
+                                    LineSystem.from_file(DATA / "stereology_lines.csv"), n_boot=3, rng=3)  # fmt: skip
+    path = tmp_path / "R.csv"
+    write_replicates(path, cols)
+    hgo_t1 = t1 / "T1.toml"
+    _edit(hgo_t1, "[data]", '[tissue]\nfibre = "hgo"\n\n[data]')
+    plain = {k: v for k, v in cols.items() if not k.startswith("disp_")}
+    write_replicates(tmp_path / "plain.csv", plain)
+    out = str(tmp_path / "out")
+    plain_argv = ["fit", str(hgo_t1), "--replicates", str(tmp_path / "plain.csv"), "--out", out]
+    _refused(capsys, plain_argv, r"T1.toml: replicate table: expected the families' dispersions for \['disp1', 'disp2'")
+    _refused(capsys, ["fit", str(hgo_t1), "--replicates", str(path), "--n-replicates", "1", "--out", out],
+             r"--n-replicates: expected an integer >= 2")  # fmt: skip
+    _refused(capsys, ["fit", str(hgo_t1), "--replicates", str(path), "--no-sample", "--out", out],
+             r"--replicates: expected a sampled run")  # fmt: skip
+    assert not Path(out).exists()

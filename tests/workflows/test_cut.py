@@ -2,7 +2,6 @@
 directions, fractions and fibre dispersions reach its calibration; the draws pool in equal shares; bad tables are
 refused before any work."""
 
-import re
 import shutil
 from dataclasses import replace
 from pathlib import Path
@@ -11,7 +10,6 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.cli import main
 from bayestissue.io.stereology_files import read_replicates, write_replicates
 from bayestissue.mechanics import load_experiment
 from bayestissue.stereology import stereology_replicates
@@ -156,25 +154,3 @@ def test_cut_summary_files(short_cut, tmp_path):
     for r, o in zip(cut.rows, cut.outcomes, strict=True):
         assert len(o.tissue_terms.values["secant modulus (equilibrium)"][1]) > 100
         assert "90 % interval over" in (out / f"replicate_{r + 1}" / "tissue_terms.md").read_text()
-
-
-def _refused(capsys, argv, pattern):
-    code = main(argv)
-    err = capsys.readouterr().err
-    assert code == 2, err
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    assert re.search(pattern, err), err
-
-
-def test_fit_refuses_a_cut_it_cannot_run(table, hgo_t1, tmp_path, capsys):
-    path, cols, _ = table
-    plain = {k: v for k, v in cols.items() if not k.startswith("disp_")}
-    write_replicates(tmp_path / "plain.csv", plain)
-    out = str(tmp_path / "out")
-    plain_argv = ["fit", str(hgo_t1), "--replicates", str(tmp_path / "plain.csv"), "--out", out]
-    _refused(capsys, plain_argv, r"T1.toml: replicate table: expected the families' dispersions for \['disp1', 'disp2'")
-    _refused(capsys, ["fit", str(hgo_t1), "--replicates", str(path), "--n-replicates", "1", "--out", out],
-             r"--n-replicates: expected an integer >= 2")  # fmt: skip
-    _refused(capsys, ["fit", str(hgo_t1), "--replicates", str(path), "--no-sample", "--out", out],
-             r"--replicates: expected a sampled run")  # fmt: skip
-    assert not Path(out).exists()
