@@ -137,6 +137,10 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
         meta["convergence"] = report.verdict()
         meta["sampling_time_s"] = f"{report.time_s:.1f}"
         meta["ess_per_s_min"] = f"{report.ess_per_second():.2f}"
+    if sample is not None and sample.n_evaluations:
+        n_f, n_e = sample.n_failed, sample.n_evaluations
+        meta["failed_forward_solves"] = (f"{n_f} of {n_e} evaluations ({100.0 * n_f / n_e:.2g} %): parameter sets "
+                                         "the solver could not follow (zero likelihood)")  # fmt: skip
     cols["flags"] = np.array([";".join(f) or "-" for f in flags], dtype=str)
     return {"columns": cols, "meta": meta}
 

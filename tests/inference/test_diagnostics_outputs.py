@@ -143,6 +143,9 @@ def test_summary_flags(small_run):
     assert all("ls_outside_90" in f for f in flagged)
     md = table_markdown(table, title="t")
     assert md.startswith("# t") and "| x0 |" in md
+    # the failed forward solves are reported, not only counted (issue 36)
+    n_f, n_e = sample.n_failed, sample.n_evaluations
+    assert n_e > 0 and table["meta"]["failed_forward_solves"].startswith(f"{n_f} of {n_e} evaluations")
 
 
 def test_config_errors(tmp_path):
