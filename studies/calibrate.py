@@ -46,8 +46,9 @@ from bayestissue.analyses.calibration_study import (  # noqa: E402
     generating_line,
     recovery_lines,
     study_config,
+    tissue_terms_record,
 )
-from bayestissue.analyses.records import FILES, CalibrationRecord  # noqa: E402
+from bayestissue.analyses.records import FILES, CalibrationRecord, TissueTermsRecord  # noqa: E402
 from bayestissue.inference.summary import table_markdown  # noqa: E402
 from bayestissue.io.records import write_record  # noqa: E402
 from bayestissue.io.results import provenance, write_inference_data  # noqa: E402
@@ -171,6 +172,8 @@ def main(argv=None) -> int:
     )
     (args.out / "calibration_recovery.md").write_text(text + "\n")
     write_record(args.out / FILES[CalibrationRecord], CalibrationRecord(mode=key, runs=record_runs))
+    terms = tissue_terms_record(args.out, load_experiment(args.data / "T1.toml"), key)
+    write_record(args.out / FILES[TissueTermsRecord], terms)
     print(text)
     print(f"calibrate: done in {time.perf_counter() - t_all:.1f} s")
     return 0

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from bayestissue.analyses import verdicts
-from bayestissue.analyses.records import CalibrationRun, ParameterRow
+from bayestissue.analyses.records import CalibrationRun, ParameterRow, TissueTermsRecord
 from bayestissue.inference.summary import draw_log_likelihood, generating_fit
 from bayestissue.paper import MIRROR_TIES
 
@@ -30,6 +30,7 @@ __all__ = [
     "mirror_coordinates",
     "recovery_lines",
     "study_config",
+    "tissue_terms_record",
 ]
 
 SEED = 20261121
@@ -218,3 +219,34 @@ def calibration_run(outcome, experiments, model: str, seconds: float) -> Calibra
         loglik_max=None if ll is None else float(ll.max()),
         seconds=float(seconds),
     )
+
+
+#: The stated strain of the report's tissue terms: within both tests' range (T1 reaches 0.6, T2 1.1) and common to
+#: them, so that their moduli compare.
+TERMS_STRAIN = 0.3
+
+
+def tissue_terms_record(folder, experiment, mode: str, *, runs=("T1_mirror", "T2_mirror", "joint_mirror"),
+                        strain: float = TERMS_STRAIN, n_draws: int = 400) -> TissueTermsRecord:  # fmt: skip
+    """The calibration stage's posteriors (``folder/calibration_<run>_posterior.nc``, those present) in a tissue's
+    terms on ``experiment``'s tissue and specimen at ``strain``: ``n_draws`` draws thinned evenly, tied parameters
+    taking their target's draw (the target variable's ``tied`` attribute)."""
+    from pathlib import Path
+
+    from bayestissue.io.results import read_inference_data
+    from bayestissue.workflows.tissue_terms import tissue_terms
+
+    names = experiment.tissue.param_names
+    out, units = {}, {}
+    for run in runs:
+        path = Path(folder) / f"calibration_{run}_posterior.nc"
+        if not path.is_file():
+            continue
+        post = read_inference_data(path).posterior
+        tied = {str(t): v for v in post.data_vars for t in np.atleast_1d(post[v].attrs.get("tied", [])).tolist()}
+        draws = np.column_stack([post[tied.get(n, n)].values.ravel() for n in names])
+        draws = draws[np.linspace(0, draws.shape[0] - 1, min(n_draws, draws.shape[0])).astype(int)]
+        rows = tissue_terms(experiment, draws, strain=strain).rows()
+        out[run] = {r["quantity"]: [r["median"], r["lower"], r["upper"]] for r in rows}
+        units.update({r["quantity"]: r["unit"] for r in rows})
+    return TissueTermsRecord(mode=mode, strain=float(strain), units=units, runs=out)

@@ -37,6 +37,7 @@ __all__ = [
     "Fibre1Check",
     "IdentifiabilityRecord",
     "LawChoiceRecord",
+    "TissueTermsRecord",
     "LawFit",
     "LocalAnalysis",
     "MaterialLaws",
@@ -474,6 +475,19 @@ class LawChoiceRecord:
     seconds: float
 
 
+@dataclass(frozen=True)
+class TissueTermsRecord:
+    """Calibration posteriors in a tissue's terms (workflows.tissue_terms): run -> quantity -> [median, q05, q95]."""
+
+    SCHEMA: ClassVar[str] = "bayestissue.tissue_terms"
+    VERSION: ClassVar[int] = 1
+
+    mode: str
+    strain: float
+    units: dict[str, str]
+    runs: dict[str, dict[str, list[float]]]
+
+
 #: Each record's file name in the study's output folder.
 FILES = {
     CalibrationRecord: "calibration_record.json",
@@ -482,4 +496,5 @@ FILES = {
     ControlsRecord: "controls_record.json",
     MeasuredRecord: "measured_record.json",
     LawChoiceRecord: "laws_record.json",
+    TissueTermsRecord: "tissue_terms_record.json",
 }

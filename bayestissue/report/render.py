@@ -58,6 +58,17 @@ def _measured(M: MeasuredRecord | None) -> dict | None:
             "brains": [c for c in M.cases if c.name.startswith("brain")]}  # fmt: skip
 
 
+def _terms(T) -> dict | None:
+    """The tissue terms of the mirror-model posteriors; per quantity, whether T1's and T2's 90 % intervals overlap."""
+    if T is None or not T.runs:
+        return None
+    runs = [r for r in ("T1_mirror", "T2_mirror", "joint_mirror") if r in T.runs]
+    both = "T1_mirror" in T.runs and "T2_mirror" in T.runs
+    overlap = {q: T.runs["T1_mirror"][q][1] <= T.runs["T2_mirror"][q][2] and T.runs["T2_mirror"][q][1]
+               <= T.runs["T1_mirror"][q][2] for q in T.units} if both else {}  # fmt: skip
+    return {"record": T, "runs": runs, "overlap": overlap}
+
+
 def report_context(records: StudyRecords) -> dict:
     """Every value the template reads."""
     I, D = records.identifiability, records.discrepancy
@@ -79,6 +90,7 @@ def report_context(records: StudyRecords) -> dict:
         "experiments": experiments_context(D, rates),
         "measured": _measured(records.measured),
         "laws": laws_context(records.laws),
+        "terms": _terms(records.tissue_terms),
     }
 
 

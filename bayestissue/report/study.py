@@ -14,6 +14,7 @@ from bayestissue.analyses.records import (
     IdentifiabilityRecord,
     LawChoiceRecord,
     MeasuredRecord,
+    TissueTermsRecord,
 )
 from bayestissue.io.records import read_record
 
@@ -30,11 +31,12 @@ class StudyRecords:
     controls: ControlsRecord | None = None
     measured: MeasuredRecord | None = None
     laws: LawChoiceRecord | None = None
+    tissue_terms: TissueTermsRecord | None = None
 
 
 def read_study_records(folder) -> StudyRecords:
     """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls,
-    measured-data and laws records are optional (their stages may not have run), the other two are not."""
+    measured-data, laws and tissue-terms records are optional (their stages may not have run), the other two are not."""
     folder = Path(folder)
 
     def optional(cls):
@@ -48,4 +50,5 @@ def read_study_records(folder) -> StudyRecords:
         controls=optional(ControlsRecord),
         measured=optional(MeasuredRecord),
         laws=optional(LawChoiceRecord),
+        tissue_terms=optional(TissueTermsRecord),
     )

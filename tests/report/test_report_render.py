@@ -78,3 +78,22 @@ def test_a_record_of_another_version_is_refused_by_name(tmp_path):
     with pytest.raises(RecordError, match="measured_record.json version: expected version 1"):
         read_record(path, MeasuredRecord)
     assert read_record(FIXTURES / FILES[ControlsRecord], ControlsRecord).n_shared == 8
+
+
+def test_tissue_terms_follow_the_records(records):
+    """The tissue-terms table states whether T1's and T2's intervals overlap from the record's numbers."""
+    text = render_report(records)
+    assert "| secant modulus (instantaneous) | kPa | 57 [53.8, 61.6] | 54 [53.5, 64.6] |" in text
+    assert (
+        "| secant modulus (equilibrium) | kPa | 8.83 [7.15, 14.2] | 52.7 [49.9, 53.6] | 17.8 [17.2, 18.1] | **apart** |"
+        in text
+    )
+    T = records.tissue_terms
+    runs = {**T.runs, "T2_mirror": {**T.runs["T2_mirror"], "secant modulus (equilibrium)": [12.0, 10.0, 50.0]}}
+    moved = render_report(dataclasses.replace(records, tissue_terms=dataclasses.replace(T, runs=runs)))
+    assert (
+        "| secant modulus (equilibrium) | kPa | 8.83 [7.15, 14.2] | 12 [10, 50] | 17.8 [17.2, 18.1] | overlap |"
+        in moved
+    )
+    no_terms = render_report(dataclasses.replace(records, tissue_terms=None))
+    assert "in a tissue's terms" not in no_terms
