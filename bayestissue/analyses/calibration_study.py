@@ -233,6 +233,7 @@ def tissue_terms_record(folder, experiment, mode: str, *, runs=("T1_mirror", "T2
     taking their target's draw (the target variable's ``tied`` attribute)."""
     from pathlib import Path
 
+    from bayestissue.inference.posterior import evenly, tied_sources
     from bayestissue.io.results import read_inference_data
     from bayestissue.workflows.tissue_terms import tissue_terms
 
@@ -243,9 +244,9 @@ def tissue_terms_record(folder, experiment, mode: str, *, runs=("T1_mirror", "T2
         if not path.is_file():
             continue
         post = read_inference_data(path).posterior
-        tied = {str(t): v for v in post.data_vars for t in np.atleast_1d(post[v].attrs.get("tied", [])).tolist()}
+        tied = tied_sources(post)
         draws = np.column_stack([post[tied.get(n, n)].values.ravel() for n in names])
-        draws = draws[np.linspace(0, draws.shape[0] - 1, min(n_draws, draws.shape[0])).astype(int)]
+        draws = draws[evenly(draws.shape[0], n_draws)]
         rows = tissue_terms(experiment, draws, strain=strain).rows()
         out[run] = {r["quantity"]: [r["median"], r["lower"], r["upper"]] for r in rows}
         units.update({r["quantity"]: r["unit"] for r in rows})

@@ -28,6 +28,7 @@ from bayestissue.identifiability import (
     profile_all,
     scaled_sensitivities,
 )
+from bayestissue.inference.posterior import evenly
 from bayestissue.mechanics import load_experiment, param_names, simulate
 from bayestissue.paper import PAPER_BOUNDS, PAPER_PARAMETERS
 from bayestissue.parallel import fan_out, start_client
@@ -273,7 +274,7 @@ def at_bound(theta, lo=PAPER_BOUNDS[:, 0], hi=PAPER_BOUNDS[:, 1], rel=1e-6):
 def fibre1_tension_share(outcome, exps, lab, n=200):
     """Share of ``n`` evenly spaced posterior draws in which fibre 1 carries tension in a test that ``lab``
     calibrates (T1, T2 or both)."""
-    d = outcome.draws[np.linspace(0, outcome.draws.shape[0] - 1, min(n, outcome.draws.shape[0])).astype(int)]
+    d = outcome.draws[evenly(outcome.draws.shape[0], n)]
     tests = {"T1": exps[:1], "T2": exps[1:], "joint": exps}[lab]
     loaded = np.zeros(d.shape[0], bool)
     for e in tests:

@@ -14,12 +14,11 @@ measures how much of the parameter uncertainty it explains.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from bayestissue._validation import ValidationError, check_interval
 from bayestissue.mechanics import TissueConfig
+from bayestissue.workflows.cut import pool_draws, replicate_tissue
 
 __all__ = ["replicate_tissues", "half_angles_deg", "pool_draws", "interval_width", "width_ratio"]
 
@@ -31,7 +30,8 @@ def replicate_tissues(replicates: dict, *, base: TissueConfig) -> list[TissueCon
     ----------
     replicates : dict from :func:`bayestissue.io.stereology_files.read_replicates` with ``directions``
         (n, 3, 3), ``phi_fibres`` (n, 3) and ``phi_matrix`` (n,).
-    base : the bulk modulus and slack strains are taken from it.
+    base : the laws, bulk modulus and slack strains are taken from it
+        (:func:`bayestissue.workflows.cut.replicate_tissue`: the fractions renormalised to sum 1).
     """
     try:
         D = np.asarray(replicates["directions"], dtype=float)
@@ -41,19 +41,7 @@ def replicate_tissues(replicates: dict, *, base: TissueConfig) -> list[TissueCon
         raise ValidationError("replicates", sorted(replicates), "keys directions, phi_fibres, phi_matrix") from exc
     if D.ndim != 3 or D.shape[1:] != (3, 3) or phi.shape != (D.shape[0], 3) or pm.shape != (D.shape[0],):
         raise ValidationError("replicates", (D.shape, phi.shape, pm.shape), "(n,3,3), (n,3), (n,) arrays")
-    out = []
-    for r in range(D.shape[0]):
-        total = pm[r] + phi[r].sum()  # the table rounds: renormalise so the fractions sum to 1
-        out.append(
-            TissueConfig(
-                directions=D[r] / np.linalg.norm(D[r], axis=1, keepdims=True),
-                phi_fibres=phi[r] / total,
-                phi_matrix=pm[r] / total,
-                bulk_kpa=base.bulk_kpa,
-                eps0=base.eps0,
-            )
-        )
-    return out
+    return [replicate_tissue(base, replicates, r) for r in range(D.shape[0])]
 
 
 def half_angles_deg(directions: np.ndarray) -> np.ndarray:
@@ -65,24 +53,6 @@ def half_angles_deg(directions: np.ndarray) -> np.ndarray:
     D = D[None] if D.ndim == 2 else D
     ang = np.degrees(np.arctan2(np.abs(D[:, 1:, 1]), np.abs(D[:, 1:, 0])))
     return ang.mean(axis=1)
-
-
-def pool_draws(draws: Sequence[np.ndarray], *, n_per: int | None = None, rng=None) -> np.ndarray:
-    """Pool per-replicate posterior draws in equal shares (the mixture :math:`\\frac1R\\sum_r p_r`).
-
-    ``n_per`` draws are taken from each replicate without replacement (default: the smallest count).
-    """
-    rng = np.random.default_rng(rng)
-    arrays = [np.asarray(d, dtype=float) for d in draws if d is not None]
-    if not arrays:
-        raise ValidationError("draws", "no replicate draws", "at least one (n, p) array")
-    p = {a.shape[1] for a in arrays}
-    if len(p) != 1:
-        raise ValidationError("draws", [a.shape for a in arrays], "arrays with the same number of columns")
-    n = min(a.shape[0] for a in arrays) if n_per is None else int(n_per)
-    if n < 1 or n > min(a.shape[0] for a in arrays):
-        raise ValidationError("n_per", n_per, f"an integer in [1, {min(a.shape[0] for a in arrays)}]")
-    return np.concatenate([a[rng.choice(a.shape[0], n, replace=False)] for a in arrays])
 
 
 def interval_width(draws: np.ndarray, *, level: float = 0.9) -> np.ndarray:

@@ -147,8 +147,6 @@ def _replicates(args, config, experiments) -> dict:
     from bayestissue.io.stereology_files import read_replicates
     from bayestissue.workflows.cut import choose_replicates, replicate_experiments, replicate_fixed
 
-    if args.n_replicates < 2:
-        raise ValidationError("--n-replicates", args.n_replicates, "an integer >= 2 (a cut averages several rows)")
     if not config.sample:
         raise ValidationError("--replicates", "with --no-sample", "a sampled run (the cut pools posterior draws)")
     reps = read_replicates(args.replicates)

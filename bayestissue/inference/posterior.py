@@ -31,7 +31,18 @@ from bayestissue.inference.diagnostics import import_arviz
 from bayestissue.inference.likelihood import _tag
 from bayestissue.inference.sampling import NestedSample, PosteriorSample
 
-__all__ = ["to_inference_data"]
+__all__ = ["evenly", "tied_sources", "to_inference_data"]
+
+
+def evenly(n: int, keep: int) -> np.ndarray:
+    """At most ``keep`` evenly spaced indices into ``n`` draws (thinning)."""
+    return np.unique(np.linspace(0, n - 1, min(keep, n)).astype(int))
+
+
+def tied_sources(posterior) -> dict[str, str]:
+    """Each tied parameter -> the posterior variable holding its draws (the ``tied`` attribute
+    :func:`to_inference_data` writes on the target)."""
+    return {str(t): v for v in posterior.data_vars for t in np.atleast_1d(posterior[v].attrs.get("tied", [])).tolist()}
 
 
 def _numeric_inputs(inputs: Mapping) -> tuple[dict, dict]:

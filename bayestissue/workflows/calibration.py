@@ -43,7 +43,7 @@ from bayestissue.inference import (
 )
 from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.fit_check import fit_check, fit_check_text
-from bayestissue.inference.posterior import to_inference_data
+from bayestissue.inference.posterior import evenly, to_inference_data
 from bayestissue.inference.sampling.nested import peak_log_likelihood
 from bayestissue.inference.summary import summary_table, table_markdown
 from bayestissue.workflows.config import CalibrationConfig
@@ -140,10 +140,7 @@ def run_calibration(
         say(outcome.constraints.text())
     if not config.sample:
         outcome.table = summary_table(problem, best, None, None, references=refs)
-        _add_constraints(outcome)
-        outcome.tissue_terms = _tissue_terms(outcome, experiments, say)
-        _write(outcome, out_dir)
-        return outcome
+        return _finish(outcome, experiments, out_dir, say)
     ckpt = None if out_dir is None else Path(out_dir) / "checkpoints"
     if config.engine == "nested":
         t0 = time.perf_counter()
@@ -196,7 +193,14 @@ def run_calibration(
     outcome.sample, outcome.report, outcome.idata = sample, report, idata
     outcome.table = summary_table(problem, best, sample, report, references=refs)
     outcome.table["meta"]["fit_check"] = idata.posterior.attrs["fit_check"]
-    _add_constraints(outcome)
+    return _finish(outcome, experiments, out_dir, say)
+
+
+def _finish(outcome: CalibrationOutcome, experiments, out_dir, say) -> CalibrationOutcome:
+    """What every run ends with, sampled or not: the ties test as a line of the summary, the tissue terms, the
+    files."""
+    if outcome.constraints is not None:
+        outcome.table["meta"]["constraint_test"] = outcome.constraints.text()
     outcome.tissue_terms = _tissue_terms(outcome, experiments, say)
     _write(outcome, out_dir)
     return outcome
@@ -208,7 +212,7 @@ def _tissue_terms(outcome: CalibrationOutcome, experiments, say) -> TissueTerms 
     problem = outcome.problem
     if outcome.sample is not None:
         d = outcome.sample.flat()[:, : problem.n_material]
-        d = d[np.linspace(0, d.shape[0] - 1, min(400, d.shape[0])).astype(int)]
+        d = d[evenly(d.shape[0], 400)]
     else:
         d = outcome.best.x[None, :]
     try:
@@ -216,12 +220,6 @@ def _tissue_terms(outcome: CalibrationOutcome, experiments, say) -> TissueTerms 
     except ValidationError as exc:
         say(f"tissue terms: not computed ({exc})")
         return None
-
-
-def _add_constraints(outcome: CalibrationOutcome) -> None:
-    """The ties' and fixed values' likelihood-ratio test, as a line of the summary (where there are any)."""
-    if outcome.constraints is not None:
-        outcome.table["meta"]["constraint_test"] = outcome.constraints.text()
 
 
 def _ensemble_centres(problem, fits, best, config):

@@ -11,7 +11,7 @@ so each chosen replicate is one calibration (:func:`~bayestissue.workflows.calib
 run directory ``replicate_<r>/``, resumable on its own) with the replicate's directions and fractions in every
 experiment's tissue and, where the fibre law has a dispersion parameter (role ``dispersion``: the exponential
 fibre's ``disp``), that parameter of family k held at :math:`\\kappa_{k,r}`. The draws are pooled in equal shares
-(:func:`bayestissue.analyses.propagate.pool_draws`). The dispersion of a fibre law is then no longer a parameter the
+(:func:`pool_draws`). The dispersion of a fibre law is then no longer a parameter the
 mechanics must identify (a uniaxial test along the fibres cannot), but a measured input with its uncertainty.
 """
 
@@ -26,7 +26,16 @@ import numpy as np
 from bayestissue._validation import ValidationError
 from bayestissue.mechanics import TissueConfig
 
-__all__ = ["CutOutcome", "choose_replicates", "replicate_experiments", "replicate_fixed", "run_cut_calibration"]
+__all__ = [
+    "CutOutcome",
+    "choose_replicates",
+    "pool_draws",
+    "replicate_experiments",
+    "replicate_fixed",
+    "replicate_tissue",
+    "run_cut_calibration",
+    "write_cut_summary",
+]
 
 
 @dataclass
@@ -72,6 +81,24 @@ def replicate_tissue(tissue: TissueConfig, replicates: Mapping, row: int) -> Tis
     total = pm + phi.sum()
     return replace(tissue, directions=D / np.linalg.norm(D, axis=1, keepdims=True), phi_fibres=phi / total,
                    phi_matrix=pm / total)  # fmt: skip
+
+
+def pool_draws(draws: Sequence[np.ndarray], *, n_per: int | None = None, rng=None) -> np.ndarray:
+    """Pool per-replicate posterior draws in equal shares (the mixture :math:`\\frac1R\\sum_r p_r`).
+
+    ``n_per`` draws are taken from each replicate without replacement (default: the smallest count).
+    """
+    rng = np.random.default_rng(rng)
+    arrays = [np.asarray(d, dtype=float) for d in draws if d is not None]
+    if not arrays:
+        raise ValidationError("draws", "no replicate draws", "at least one (n, p) array")
+    p = {a.shape[1] for a in arrays}
+    if len(p) != 1:
+        raise ValidationError("draws", [a.shape for a in arrays], "arrays with the same number of columns")
+    n = min(a.shape[0] for a in arrays) if n_per is None else int(n_per)
+    if n < 1 or n > min(a.shape[0] for a in arrays):
+        raise ValidationError("n_per", n_per, f"an integer in [1, {min(a.shape[0] for a in arrays)}]")
+    return np.concatenate([a[rng.choice(a.shape[0], n, replace=False)] for a in arrays])
 
 
 def replicate_experiments(experiments: Sequence, replicates: Mapping, row: int) -> list:
@@ -120,7 +147,7 @@ def run_cut_calibration(
 ) -> CutOutcome:
     """One calibration per chosen replicate row (module docstring), then the pooled draws. ``kwargs`` go to
     :func:`~bayestissue.workflows.calibration.run_calibration` (progress, provenance)."""
-    from bayestissue.analyses.propagate import pool_draws
+    from bayestissue.inference.posterior import evenly
     from bayestissue.workflows.calibration import run_calibration
 
     say = say or (lambda line: None)
@@ -140,7 +167,7 @@ def run_cut_calibration(
     names = tuple(outcomes[0].sample.names)
     draws = [o.sample.flat() for o in outcomes]
     n = min(d.shape[0] for d in draws)
-    within = np.stack([d[np.linspace(0, d.shape[0] - 1, n).astype(int)] for d in draws])
+    within = np.stack([d[evenly(d.shape[0], n)] for d in draws])
     pooled = pool_draws(list(within), rng=config.seed)
     return CutOutcome(rows, outcomes, fixed, names, pooled, within)
 

@@ -115,11 +115,9 @@ def manifest_differences(old: Mapping, new: Mapping) -> list[str]:
                     diffs.append(
                         f"{x['experiment']}'s {role.replace('_', ' ')} {x.get(role)} -> {y.get(role)} (content changed)"
                     )
-    ra, rb = old.get("replicates"), new.get("replicates")
-    if (ra or {}).get("file_sha256") != (rb or {}).get("file_sha256") or (ra or {}).get("n_replicates") != (
-        rb or {}
-    ).get("n_replicates"):
-        diffs.append(f"the stereology replicates {ra} -> {rb}")
+    ra, rb = old.get("replicates") or {}, new.get("replicates") or {}
+    if any(ra.get(k) != rb.get(k) for k in ("file_sha256", "n_replicates")):
+        diffs.append(f"the stereology replicates {ra or None} -> {rb or None}")
     fa, fb = _flat(old.get("config", {})), _flat(new.get("config", {}))
     for key in sorted(set(fa) | set(fb)):
         if key not in RESUMABLE and fa.get(key) != fb.get(key):

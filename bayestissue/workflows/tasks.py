@@ -34,6 +34,7 @@ from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.diagnostics import rhat_ensembles
 from bayestissue.inference.fit_check import fit_check, fit_check_text
 from bayestissue.inference.likelihood import _tag
+from bayestissue.inference.posterior import evenly, tied_sources
 from bayestissue.io.results import read_inference_data
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.problem import build_problem, paper_parameter_set
@@ -206,16 +207,11 @@ def run_task(task: CalibrationTask) -> CalibrationDraws:
     if draws4.shape[0] >= 2 and draws4.shape[1] >= 4:
         out.rhat = rhat_ensembles(draws4)
     flat = draws4.reshape(-1, draws4.shape[-1])
-    idx = _evenly(flat.shape[0], task.keep)
+    idx = evenly(flat.shape[0], task.keep)
     out.loglik = np.column_stack([ll.sum(axis=1) for ll in problem.log_likelihood_pointwise(flat[idx])])
     out.draws = mat.expand(flat[idx])
     out.u = untied.to_unit(out.draws)
     return out
-
-
-def _evenly(n: int, keep: int) -> np.ndarray:
-    """At most ``keep`` evenly spaced indices into ``n`` draws (thinning)."""
-    return np.unique(np.linspace(0, n - 1, min(keep, n)).astype(int))
 
 
 def _sampled_start(mat: ParameterSet, start) -> np.ndarray:
@@ -258,14 +254,14 @@ def attach_posterior(outcome: CalibrationDraws, path, *, keep: int = 4000) -> Ca
     have = sorted(idata.log_likelihood.data_vars)
     if have != sorted(tags):
         raise ValidationError(f"results file {path.name} experiments", have, f"the experiments {sorted(tags)}")
-    tied = {str(f): v for v in post.data_vars for f in np.atleast_1d(post[v].attrs.get("tied", [])).tolist()}
+    tied = tied_sources(post)
     missing = [n for n in outcome.names if tied.get(n, n) not in post.data_vars]
     if missing:
         raise ValidationError(f"results file {path.name}", f"no draws of {missing}", f"draws of {list(outcome.names)}")
     draws = np.column_stack([post[tied.get(n, n)].values.ravel() for n in outcome.names])
     n = draws.shape[0]
     ll = np.column_stack([idata.log_likelihood[t].values.reshape(n, -1).sum(axis=1) for t in tags])
-    idx = _evenly(n, keep)
+    idx = evenly(n, keep)
     out = replace(outcome)
     out.draws, out.loglik = draws[idx], ll[idx]
     out.u = box.to_unit(out.draws)
