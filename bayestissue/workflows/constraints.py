@@ -81,7 +81,9 @@ def constraint_test(experiments, config, problem, best: LeastSquaresResult) -> C
             for x0 in (start, None)]  # fmt: skip
     fit = min(fits, key=lambda r: r.cost)
     rss_c = _rss(problem, best.x)
-    rss_f = np.minimum(_rss(free, fit.x), rss_c)  # the free model contains the constrained optimum
+    # the free model contains the constrained optimum: where its fits end higher, that point is the free optimum
+    # (one point for every experiment: clipping each experiment's RSS apart would mix two points and inflate Lambda)
+    rss_f = _rss(free, fit.x) if fit.cost < best.cost else rss_c
     sds = [e.noise.sd for e in problem.experiments]
     known = all(sd is not None for sd in sds)
     if known:
