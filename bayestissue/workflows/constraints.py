@@ -10,7 +10,9 @@ doi:10.1214/aoms/1177732360). With Gaussian noise,
 
 for the constrained (c) and free (f) optima, each experiment e with its own noise sd, referred to
 :math:`\\chi^2_{d}` with d the number of parameters released. The free fit starts at the constrained optimum (its
-cost cannot be higher; :math:`\\Lambda \\ge 0`) and at the parameters' initial values. The :math:`\\chi^2`
+cost cannot be higher) and at the parameters' initial values. With the sd profiled out and several experiments the
+least squares minimises the unweighted sum of RSS, not the profile likelihood, so :math:`\\Lambda` can come out
+negative: it is then reported as 0 (the test cannot reject there; conservative). The :math:`\\chi^2`
 reference is conservative where a released parameter is not identified or ends on its box's edge (the test then
 understates the evidence against the constraints, never overstates it). Least squares only: seconds.
 """
