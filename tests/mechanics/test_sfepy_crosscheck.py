@@ -190,6 +190,8 @@ class _Block:
         fibre_term=_LinearFibreTLTerm,
         kelvin=None,
         dt=None,
+        ogden=None,
+        ogden_term=None,
     ):
         L = np.array(SPECIMEN)
         self.length = L
@@ -212,6 +214,12 @@ class _Block:
             Term.new("dw_tl_he_mooney_rivlin(m.kappa, v, u)", integral, omega, m=mat, v=v, u=u),
             Term.new("dw_tl_bulk_penalty(m.K, v, u)", integral, omega, m=mat, v=v, u=u),
         ]
+        if ogden is not None:  # [(c_p, alpha_p)]: SfePy's W = c / alpha (sum of isochoric stretches^alpha - 3)
+            terms = terms[2:]
+            for k, (c, alpha) in enumerate(ogden):
+                og = Material(f"og{k}", p=np.array([[c, alpha]]))
+                terms.append(ogden_term(ogden_term.name, f"og{k}.p, v, u", integral, omega, **{f"og{k}": og}, v=v,
+                                        u=u))  # fmt: skip
         self.fibre_terms = []
         for k, (g, direction) in enumerate(fibres):
             fm = Material(f"f{k}", g=float(g), d=np.asarray(direction, dtype=float).reshape(3, 1))
@@ -322,7 +330,7 @@ class _Block:
 
 def _reduced(tissue, params, p):
     """bayestissue's reduced model: one creep step at P11 = p; (u, E Voigt)."""
-    exp = Experiment("x", SPECIMEN, CreepProtocol(p), np.array([0.0, 1.0]), 1.0, tissue=tissue)
+    exp = Experiment("x", SPECIMEN, CreepProtocol(p), np.array([0.0, 1.0]), 0.5, tissue=tissue)  # two steps
     res = simulate(exp, params, full=True)
     assert res.ok[0]
     return res.step_displacement_mm[0, -1], res.strain[0, -1]
