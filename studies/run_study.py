@@ -37,6 +37,7 @@ STAGES = (
     ("controls", "controls.py"),
     ("measured data", "measured_data.py"),
     ("laws", "law_choice.py"),
+    ("specimens", "specimens.py"),
     ("report", "report.py"),
 )
 

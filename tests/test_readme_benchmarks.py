@@ -18,6 +18,9 @@ SMOKE = {
     "bench_sampling.py": (["--model", "mirror", "--coordinates", "creep", "--moves", "mixture", "--walkers", "36",
                            "--max-steps", "60", "--adapt-rounds", "1"], "R-hat"),
     "bench_micrographs.py": (["--sizes", "120x160", "--sections", "6", "--tile", "120x160"], "px x 6 sections"),
+    "coverage_hierarchy.py": (["--reps", "1", "--sizes", "2"], "90 % intervals covering the generating value"),
+    "hierarchy_vs_joint.py": (["--stage1-steps", "200", "--steps", "200", "--walkers", "40", "--population-draws",
+                               "300"], "largest quantile difference"),
     "compare_engines.py": ([str(ROOT / "figures" / "calibration_summary_T1_mirror.csv"),
                             str(ROOT / "figures" / "calibration_summary_T1_mirror.csv")], "marginals AGREE"),
 }  # fmt: skip

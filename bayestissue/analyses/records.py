@@ -11,6 +11,7 @@ T1 vs T2            :class:`DiscrepancyRecord`         tension, cross-prediction
 controls            :class:`ControlsRecord`            scenarios and every pair's least-squares fits
 measured data       :class:`MeasuredRecord`            the real-data cases: fits, posteriors, verdicts
 laws                :class:`LawChoiceRecord`           each law on each material: transfer, joint evidence
+specimens           :class:`HierarchyRecord`           the hierarchical model's cases (analyses.hierarchy_record)
 ==================  =================================  ===========================================================
 
 Records hold measurements, not verdicts: the report applies the rules of :mod:`bayestissue.analyses.verdicts` to
@@ -23,38 +24,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+# fmt: off
 __all__ = [
-    "FILES",
-    "CalibrationRecord",
-    "CalibrationRun",
-    "ControlPair",
-    "ControlsRecord",
-    "CrossPrediction",
-    "CutPosterior",
-    "CutTest",
-    "DiscrepancyRecord",
-    "FitCheck",
-    "Fibre1Check",
-    "IdentifiabilityRecord",
-    "LawChoiceRecord",
-    "TissueTermsRecord",
-    "LawFit",
-    "LocalAnalysis",
-    "MaterialLaws",
-    "MeasuredResult",
-    "MeasuredRecord",
-    "PairFit",
-    "ParameterRow",
-    "PosteriorMeasures",
-    "PosteriorSummary",
-    "Profile",
-    "ProfileReference",
-    "RateProfile",
-    "RateStudy",
-    "ScenarioInfo",
-    "SpecimenModel",
-    "Tension",
+    "FILES", "CalibrationRecord", "CalibrationRun", "ControlPair", "ControlsRecord", "CrossPrediction",
+    "CutPosterior", "CutTest", "DiscrepancyRecord", "FitCheck", "Fibre1Check", "IdentifiabilityRecord",
+    "LawChoiceRecord", "TissueTermsRecord", "LawFit", "LocalAnalysis", "MaterialLaws", "MeasuredResult",
+    "MeasuredRecord", "PairFit", "ParameterRow", "PosteriorMeasures", "PosteriorSummary", "Profile",
+    "ProfileReference", "RateProfile", "RateStudy", "ScenarioInfo", "SpecimenModel", "Tension", "HierarchyCase",
+    "HierarchyRecord",
 ]
+# fmt: on
 
 
 # ---------------------------------------------------------------------------------------------------- shared pieces
@@ -488,6 +467,8 @@ class TissueTermsRecord:
     runs: dict[str, dict[str, list[float]]]
 
 
+from bayestissue.analyses.hierarchy_record import HierarchyCase, HierarchyRecord  # noqa: E402
+
 #: Each record's file name in the study's output folder.
 FILES = {
     CalibrationRecord: "calibration_record.json",
@@ -497,4 +478,5 @@ FILES = {
     MeasuredRecord: "measured_record.json",
     LawChoiceRecord: "laws_record.json",
     TissueTermsRecord: "tissue_terms_record.json",
+    HierarchyRecord: "hierarchy_record.json",
 }

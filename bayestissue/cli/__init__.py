@@ -18,7 +18,7 @@ from bayestissue import __version__
 __all__ = ["main", "build_parser", "plain", "progress_bar", "seed"]
 
 #: Sub-command modules, in the order ``--help`` lists them.
-_COMMANDS = ("simulate", "fit", "importer", "stereology", "micrographs")
+_COMMANDS = ("simulate", "fit", "hierarchy", "importer", "stereology", "micrographs")
 
 
 class _Parser(argparse.ArgumentParser):

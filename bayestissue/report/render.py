@@ -24,6 +24,7 @@ from bayestissue.report.causes import (
 from bayestissue.report.format import FILTERS
 from bayestissue.report.identify import estimates_context, identify_context
 from bayestissue.report.laws import laws_context
+from bayestissue.report.population import population_context
 from bayestissue.report.study import LABELS, StudyRecords, read_study_records
 
 __all__ = ["GUIDE", "render_report", "write_report"]
@@ -91,6 +92,7 @@ def report_context(records: StudyRecords) -> dict:
         "measured": _measured(records.measured),
         "laws": laws_context(records.laws),
         "terms": _terms(records.tissue_terms),
+        "population": population_context(records.hierarchy),
     }
 
 

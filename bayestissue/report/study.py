@@ -11,6 +11,7 @@ from bayestissue.analyses.records import (
     CalibrationRecord,
     ControlsRecord,
     DiscrepancyRecord,
+    HierarchyRecord,
     IdentifiabilityRecord,
     LawChoiceRecord,
     MeasuredRecord,
@@ -32,11 +33,13 @@ class StudyRecords:
     measured: MeasuredRecord | None = None
     laws: LawChoiceRecord | None = None
     tissue_terms: TissueTermsRecord | None = None
+    hierarchy: HierarchyRecord | None = None
 
 
 def read_study_records(folder) -> StudyRecords:
     """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls,
-    measured-data, laws and tissue-terms records are optional (their stages may not have run), the other two are not."""
+    measured-data, laws, tissue-terms and hierarchy records are optional (their stages may not have run), the other
+    two are not."""
     folder = Path(folder)
 
     def optional(cls):
@@ -51,4 +54,5 @@ def read_study_records(folder) -> StudyRecords:
         measured=optional(MeasuredRecord),
         laws=optional(LawChoiceRecord),
         tissue_terms=optional(TissueTermsRecord),
+        hierarchy=optional(HierarchyRecord),
     )

@@ -42,7 +42,7 @@ from bayestissue.inference.sampling.checkpoints import stored_progress
 from bayestissue.io.paths import check_output_dir
 from bayestissue.io.results import file_sha256, package_sha256
 
-__all__ = ["RESUMABLE", "RunDirectory", "run_manifest", "open_run_directory", "manifest_differences"]
+__all__ = ["RESUMABLE", "RunDirectory", "run_manifest", "open_run_directory", "manifest_differences", "run_status"]
 
 LOCK, MANIFEST, CHECKPOINTS = ".lock", "manifest.json", "checkpoints"
 
@@ -176,6 +176,13 @@ def _read_manifest(path: Path) -> dict | None:
         raise ValidationError(
             str(p), "unreadable", "the run's manifest (JSON)", "start over with --overwrite"
         ) from None
+
+
+def run_status(path: str | Path) -> str | None:
+    """The status its manifest records for the run directory ``path`` (running, finished, failed), or None without
+    one."""
+    stored = _read_manifest(Path(path)) if Path(path).is_dir() else None
+    return None if stored is None else stored.get("status")
 
 
 def _occupied(path: Path) -> list[str]:

@@ -285,3 +285,45 @@ def test_fit_refuses_a_cut_it_cannot_run(t1, tmp_path, capsys):
     _refused(capsys, ["fit", str(hgo_t1), "--replicates", str(path), "--no-sample", "--out", out],
              r"--replicates: expected a sampled run")  # fmt: skip
     assert not Path(out).exists()
+
+
+@pytest.fixture
+def groups_study(tmp_path):
+    """A copy of the bundled specimens file of `bayestissue hierarchy` (data/synthetic/tendon_groups)."""
+    shutil.copytree(DATA / "synthetic" / "tendon_groups", tmp_path, dirs_exist_ok=True)
+    return tmp_path
+
+
+@pytest.mark.parametrize(
+    "old, new, pattern",
+    [
+        ('reference_group = "fresh"', 'reference_grup = "fresh"',
+         r"specimens.toml: key: .*got 'reference_grup' \(did you mean 'reference_group'\?\)"),
+        ('parameters = ["k1_1", "beta1"]', 'parameters = ["k1", "beta1"]',
+         r"specimens.toml: parameters: .*got 'k1' \(did you mean 'k1_1'\?"),
+        ('parameters = ["k1_1", "beta1"]', 'parameters = ["k1_1", "k2_1"]',
+         r"specimens.toml: parameters: expected a sampled parameter.*got 'k2_1'"),
+        ('experiments = ["fresh_2.toml"]', 'experiments = ["fresh_9.toml"]',
+         r"specimen fresh_2 experiments: expected an existing experiment file, got '.*fresh_9.toml'"),
+        ('name = "fresh_2"', 'name = "fresh_1"', r"specimen 2 name: expected a name no other specimen has"),
+        ('reference_group = "fresh"', 'reference_group = "old"', r"reference_group: expected one of the specimens"),
+        ("seed = 1", "seed = 1\nchains = 1", r"\[population\] chains: expected an integer >= 2, got 1"),
+        ("seed = 1", "sd_scale = { k1_1 = -1 }", r"\[population\] sd_scale.k1_1: expected a positive number"),
+    ],
+)  # fmt: skip
+def test_bad_specimens_file(groups_study, capsys, old, new, pattern):
+    path = groups_study / "specimens.toml"
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    _refused(capsys, ["hierarchy", str(path), "--out", str(groups_study / "run"), "--quick"], pattern)
+    assert not (groups_study / "run").exists()
+
+
+def test_specimens_of_different_models_refused(groups_study, capsys):
+    """A specimen whose experiment has two branches samples other parameters: refused before any fit."""
+    exp = groups_study / "incubated_1.toml"
+    exp.write_text(exp.read_text().replace("fibre_branches = 1", "fibre_branches = 2"))
+    _refused(capsys, ["hierarchy", str(groups_study / "specimens.toml"), "--out", str(groups_study / "run"), "--quick"],
+             r"specimen incubated_1 model: expected the sampled parameters of specimen fresh_1")  # fmt: skip
+    assert not (groups_study / "run" / "specimens").exists()
