@@ -74,12 +74,14 @@ def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=20, help="replications per control")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--stage1-steps", type=int, default=600, help="emcee steps per ensemble of each stage-1 fit")
     ap.add_argument("--sizes", default="3-6", help="range of specimens per group, LO-HI (or one number)")
     ap.add_argument("--figure", action="store_true", help="write docs/hierarchy_coverage.png")
     args = ap.parse_args(argv)
     first, _, last = args.sizes.partition("-")
     size_range = (int(first), int(last or first))
-    config = load_config(ROOT / "data" / "synthetic" / "tendon_groups" / "fit.toml", **STAGE1)
+    stage1 = {**STAGE1, "sampler": {**STAGE1["sampler"], "max_steps": args.stage1_steps}}
+    config = load_config(ROOT / "data" / "synthetic" / "tendon_groups" / "fit.toml", **stage1)
     controls = {"positive (d k1_1 = ln 0.6)": {"k1_1": math.log(0.6)}, "negative (no effect)": {}}
     results = {}
     t0 = time.perf_counter()

@@ -105,6 +105,9 @@ def main(argv=None) -> dict:
         lp[~np.isfinite(lp)] = -np.inf
         return lp
 
+    if args.walkers < 2 * (n_u + 3 * P):
+        raise SystemExit(f"--walkers: expected at least {2 * (n_u + 3 * P)} (twice the {n_u + 3 * P} dimensions of the "
+                         f"joint posterior), got {args.walkers}")  # fmt: skip
     rng = np.random.default_rng(args.seed)
     start = np.empty((args.walkers, n_u + 3 * P))
     for w in range(args.walkers):
