@@ -83,7 +83,7 @@ def hierarchy_markdown(outcome) -> str:
     lines += ["", "## Group effects (90 % intervals)", ""]
     eff = effect_rows(post)
     if eff:
-        lines += ["| group vs reference | parameter | effect | 90 % interval | P(> 0) | specimens |",
+        lines += ["| group vs reference | parameter | effect | 90 % interval | P(> no effect) | specimens |",
                   "|---|---|---|---|---|---|"]  # fmt: skip
         for r in eff:
             what = "ratio" if r["kind"] == "ratio" else "difference"
