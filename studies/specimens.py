@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -62,8 +63,7 @@ SETTINGS = {
 def tendon_groups(key: str, out: Path) -> object:
     t0 = time.perf_counter()
     spec = load_hierarchy(GROUPS)
-    spec = HierarchySpec(spec.source, spec.specimens, spec.parameters, spec.fit_config, spec.reference_group,
-                         {**spec.population, **SETTINGS[key]["population"]})  # fmt: skip
+    spec = replace(spec, population={**spec.population, **SETTINGS[key]["population"]})
     config = load_config(spec.fit_config, **SETTINGS[key]["stage1"])
     runs = ROOT / "runs" / "hierarchy" / ("tendon_groups_quick" if key == "quick" else "tendon_groups")
     outcome = run_hierarchy(spec, config, runs, overwrite=True, config_path=spec.fit_config, say=print)

@@ -135,7 +135,6 @@ class HierarchyPosterior:
     s: np.ndarray
     z: np.ndarray
     acceptance: np.ndarray
-    prior_scales: dict
 
     def flat(self, name: str) -> np.ndarray:
         a = getattr(self, name)
@@ -289,8 +288,4 @@ def sample_population(
                 out_m[c, r], out_d[c, r], out_s[c, r], out_z[c, r] = beta[0], beta[1:], s, z
     acceptance = accepted / (n_chains * n_draws * n_proposals)
     names = tuple(specimens) if specimens is not None else tuple(f"specimen_{i + 1}" for i in range(n_spec))
-    return HierarchyPosterior(
-        scale, groups, names, gidx, out_m, out_d, out_s, out_z, acceptance,
-        {"sd": dict(zip(scale.names, sd0.tolist(), strict=True)),
-         "effect": dict(zip(scale.names, eff0.tolist(), strict=True))},
-    )  # fmt: skip
+    return HierarchyPosterior(scale, groups, names, gidx, out_m, out_d, out_s, out_z, acceptance)

@@ -145,10 +145,10 @@ def design_notes(spec: HierarchySpec) -> list[str]:
             notes.append(f"group {g!r} has one specimen: its effect is confounded with that specimen's own deviation "
                          "from its group, so the interval of the effect is set by the prior of the population sd, "
                          "not by the data")  # fmt: skip
-    if all(n <= 1 for n in counts.values()):
+    dof = sum(n - 1 for n in counts.values())  # specimens minus groups
+    if dof == 0:
         notes.append("no group has two specimens: the population sd is not identified by these data (prior-driven)")
-    elif sum(n - 1 for n in counts.values()) < 3:
-        dof = sum(n - 1 for n in counts.values())
+    elif dof < 3:
         notes.append(f"{dof} degree{'s' if dof > 1 else ''} of freedom for the population sd (specimens minus "
                      "groups): its interval is wide and its prior matters")  # fmt: skip
     return notes
@@ -156,8 +156,8 @@ def design_notes(spec: HierarchySpec) -> list[str]:
 
 @dataclass
 class HierarchyOutcome:
-    """Stage 1 (per specimen: its calibration outcome or None if reused, its draws, verdict and fit check) and
-    stage 2 (:class:`~bayestissue.inference.hierarchy.HierarchyPosterior`)."""
+    """Stage 1 (per specimen: its draws of the population parameters, its verdict and predictive check) and stage 2
+    (:class:`~bayestissue.inference.hierarchy.HierarchyPosterior`)."""
 
     spec: HierarchySpec
     stage1: list[np.ndarray]
@@ -169,11 +169,8 @@ class HierarchyOutcome:
     generating: dict | None = None  # population parameter -> per specimen generating value (synthetic data)
 
 
-def _stage1_draws(run_dir: Path, names) -> tuple[np.ndarray, str, str]:
-    import arviz as az
-
-    idata = az.from_netcdf(run_dir / "posterior.nc")
-    post = idata.posterior
+def _stage1_draws(post, names) -> tuple[np.ndarray, str, str]:
+    """A specimen's draws of ``names`` from its posterior group, with its verdict and predictive check."""
     draws = np.column_stack([post[n].values.reshape(-1) for n in names])
     return draws, str(post.attrs.get("convergence", "")), str(post.attrs.get("fit_check", ""))
 
@@ -194,6 +191,7 @@ def run_hierarchy(
     parameters among them, orderings kept whole) before the first fit. ``progress()``, if given, returns a fresh
     sampling progress callback and its closing function for each specimen."""
     from bayestissue.inference.hierarchy import check_population_parameters, sample_population
+    from bayestissue.io.results import read_inference_data
     from bayestissue.mechanics import load_experiment
     from bayestissue.workflows.calibration import run_calibration
     from bayestissue.workflows.problem import build_problem
@@ -231,18 +229,18 @@ def run_hierarchy(
         if resume and status == "finished" and (sub / "posterior.nc").is_file():
             with open_run_directory(sub, manifest, resume=True):  # refuses a different run
                 pass
-            draws, verdict, check = _stage1_draws(sub, names)
+            draws, verdict, check = _stage1_draws(read_inference_data(sub / "posterior.nc").posterior, names)
             say(f"specimen {s.name} ({k}/{len(spec.specimens)}): finished before, read back")
         else:
             say(f"specimen {s.name} ({k}/{len(spec.specimens)}, group {s.group}): stage-1 calibration")
             bar, close = progress() if progress is not None else (None, lambda: None)
             try:
                 with open_run_directory(sub, manifest, resume=resume and status is not None, overwrite=overwrite):
-                    run_calibration(experiments[s.name], config, out_dir=sub, resume=resume and status is not None,
-                                    progress=bar, say=say)  # fmt: skip
+                    fitted = run_calibration(experiments[s.name], config, out_dir=sub,
+                                             resume=resume and status is not None, progress=bar, say=say)  # fmt: skip
             finally:
                 close()
-            draws, verdict, check = _stage1_draws(sub, names)
+            draws, verdict, check = _stage1_draws(fitted.idata.posterior, names)
         stage1.append(draws[:, cols])
         verdicts.append(verdict)
         checks.append(check)

@@ -119,7 +119,6 @@ def hierarchy_markdown(outcome) -> str:
 def write_hierarchy(outcome, out_dir, *, figures: bool = True, stem: str = "hierarchy", draws: bool = True) -> str:
     """``<stem>_summary.md``, ``<stem>_summary.csv`` (the effects and groups rows), with ``draws`` ``<stem>.nc``
     (the stage-2 draws as arviz InferenceData) and, with ``figures``, ``<stem>.png``; returns the markdown."""
-
     from bayestissue.io.tables import write_table
 
     out = Path(out_dir)
@@ -138,7 +137,8 @@ def write_hierarchy(outcome, out_dir, *, figures: bool = True, stem: str = "hier
         }
         for r in effect_rows(post)
     ]
-    for r in group_rows(post):
+    groups = group_rows(post)
+    for r in groups:
         rows.append(
             {
                 "quantity": "typical",
@@ -161,10 +161,9 @@ def write_hierarchy(outcome, out_dir, *, figures: bool = True, stem: str = "hier
                 "p_positive": np.nan,
             }
         )
-    for j, n in enumerate(post.scale.names):
-        med, lo, hi = _q(post.flat("s")[:, j])
-        rows.append({"quantity": "population_sd", "group": "all", "parameter": n, "median": med, "lower": lo,
-                     "upper": hi, "p_positive": np.nan})  # fmt: skip
+    for r in groups[: len(post.scale.names)]:  # the population sd, shared by the groups: the reference group's rows
+        rows.append({"quantity": "population_sd", "group": "all", "parameter": r["parameter"], "median": r["pop_sd"],
+                     "lower": r["pop_sd_lower"], "upper": r["pop_sd_upper"], "p_positive": np.nan})  # fmt: skip
     cols = {k: np.array([r[k] for r in rows]) for k in rows[0]}
     write_table(out / f"{stem}_summary.csv", cols, meta={"model": "two-stage hierarchical (Lunn et al. 2013)",
                                                            "reference_group": post.groups[0],
