@@ -30,6 +30,9 @@ class ValidationError(ValueError):
             msg += f" ({hint})"
         super().__init__(msg)
 
+    def __reduce__(self):  # pickles whole (a task on a dask worker raises it back to the client)
+        return (type(self), (self.field, self.value, self.expected, self.hint))
+
     def within(self, where: str) -> ValidationError:
         """The same error with ``where`` (e.g. the file's name) before the field."""
         return ValidationError(f"{where} {self.field}", self.value, self.expected, self.hint)

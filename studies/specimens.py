@@ -72,7 +72,8 @@ def tendon_groups(key: str, out: Path) -> object:
     return hierarchy_case("tendon_groups", "Synthetic tendon study: 4 fresh and 4 incubated specimens",
                           outcome.posterior, outcome.stage1, diagnostics=outcome.diagnostics, notes=outcome.notes,
                           stage1_verdicts=verdicts, figure="hierarchy_tendon_groups.png",
-                          seconds=time.perf_counter() - t0, generating=outcome.generating)  # fmt: skip
+                          seconds=time.perf_counter() - t0, generating=outcome.generating,
+                          terms=outcome.tissue_terms)  # fmt: skip
 
 
 def slug_specimens(key: str, out: Path) -> object | None:

@@ -46,21 +46,28 @@ class HierarchyCase:
     notes: list[str]
     figure: str
     seconds: float
+    tissue_strain: float
+    tissue_units: dict[str, str]
+    tissue: dict[str, list[float]]
+    tissue_effects: dict[str, list[float]]
 
 
 @dataclass(frozen=True)
 class HierarchyRecord:
     SCHEMA: ClassVar[str] = "bayestissue.hierarchy"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
 
     mode: str
     cases: list[HierarchyCase]
 
 
 def hierarchy_case(name: str, title: str, post, stage1, *, diagnostics: dict, notes, stage1_verdicts: dict,
-                   figure: str, seconds: float, generating: dict | None = None) -> HierarchyCase:  # fmt: skip
+                   figure: str, seconds: float, generating: dict | None = None,
+                   terms=None) -> HierarchyCase:  # fmt: skip
     """The record of one case from its :class:`~bayestissue.inference.hierarchy.HierarchyPosterior` and stage-1
-    draws (natural units, per specimen), through the tables of :mod:`bayestissue.workflows.hierarchy_summary`."""
+    draws (natural units, per specimen), through the tables of :mod:`bayestissue.workflows.hierarchy_summary`, with
+    the population's tissue terms ``terms`` (:class:`~bayestissue.workflows.population_terms.PopulationTerms`) if
+    given."""
     from bayestissue.workflows.hierarchy_summary import effect_rows, group_rows, specimen_rows
 
     sc = post.scale
@@ -78,6 +85,13 @@ def hierarchy_case(name: str, title: str, post, stage1, *, diagnostics: dict, no
     for j, n in enumerate(sc.names):
         own = [float(np.median(np.log(st[:, j]) if sc.log[j] else st[:, j])) for st in stage1]
         spread[n] = float(np.max(own) - np.min(own))
+    tissue, tissue_effects = {}, {}
+    if terms is not None:
+        for r in terms.group_rows():
+            tissue[f"{r['group']}:{r['quantity']}"] = [r[k] for k in ("typical", "typical_lower", "typical_upper",
+                                                                      "new_lower", "new_upper")]  # fmt: skip
+        for r in terms.effect_rows():
+            tissue_effects[f"{r['group']}:{r['quantity']}"] = [r["median"], r["lower"], r["upper"], r["p_positive"]]
     return HierarchyCase(
         name=name,
         title=title,
@@ -98,4 +112,8 @@ def hierarchy_case(name: str, title: str, post, stage1, *, diagnostics: dict, no
         notes=list(notes),
         figure=figure,
         seconds=float(seconds),
+        tissue_strain=float(terms.strain) if terms is not None else 0.0,
+        tissue_units=dict(terms.units) if terms is not None else {},
+        tissue=tissue,
+        tissue_effects=tissue_effects,
     )

@@ -124,7 +124,8 @@ def check_population_parameters(names: Sequence[str], sampled: Sequence[str], or
 class HierarchyPosterior:
     """Stage-2 draws, chains first: ``m`` (C, n, p), ``d`` (C, n, G - 1, p) the effects of the non-reference groups,
     ``s`` (C, n, p), ``z`` (C, n, I, p) each specimen's parameters; ``acceptance`` (I,) each specimen's acceptance
-    rate of its stage-1 proposals; all on the population scale."""
+    rate of its stage-1 proposals; all on the population scale. ``sd_prior`` and ``effect_prior`` (p,): the
+    half-normal scale of s and the sd of d used (the prior of m is N(box centre, box width^2))."""
 
     scale: PopulationScale
     groups: tuple[str, ...]  # reference first
@@ -135,6 +136,8 @@ class HierarchyPosterior:
     s: np.ndarray
     z: np.ndarray
     acceptance: np.ndarray
+    sd_prior: np.ndarray
+    effect_prior: np.ndarray
 
     def flat(self, name: str) -> np.ndarray:
         a = getattr(self, name)
@@ -153,6 +156,16 @@ class HierarchyPosterior:
 
     def n_in_group(self, g: int) -> int:
         return int(np.count_nonzero(self.specimen_group == g))
+
+    def prior_text(self) -> str:
+        """The population priors used, per parameter on its population scale."""
+        sc = self.scale
+        return "; ".join(
+            f"{n} ({'ln' if lg else 'linear'}): m ~ N({c:.3g}, {w:.3g}^2), d ~ N(0, {e:.3g}^2), "
+            f"s ~ half-normal({v:.3g})"
+            for n, lg, c, w, e, v in zip(sc.names, sc.log, sc.centre, sc.width, self.effect_prior, self.sd_prior,
+                                         strict=True)
+        )  # fmt: skip
 
 
 def _slice_log_s(u, logf, rng, width=1.0, max_steps=50):
@@ -288,4 +301,4 @@ def sample_population(
                 out_m[c, r], out_d[c, r], out_s[c, r], out_z[c, r] = beta[0], beta[1:], s, z
     acceptance = accepted / (n_chains * n_draws * n_proposals)
     names = tuple(specimens) if specimens is not None else tuple(f"specimen_{i + 1}" for i in range(n_spec))
-    return HierarchyPosterior(scale, groups, names, gidx, out_m, out_d, out_s, out_z, acceptance)
+    return HierarchyPosterior(scale, groups, names, gidx, out_m, out_d, out_s, out_z, acceptance, sd0, eff0)

@@ -20,6 +20,26 @@ def _recovered(case) -> dict | None:
     return {"own": own, "shrunk": shrunk, "total": total}
 
 
+#: the tissue terms the report shows (the summary file has them all)
+TISSUE_SHOWN = ("secant modulus (instantaneous)", "secant modulus (equilibrium)", "relaxation at full hold")
+
+
+def _tissue(case) -> list[dict]:
+    """Per shown quantity (and every relaxation time): each group's typical specimen and new-specimen range, and
+    each non-reference group's effect."""
+    rows = []
+    for name, unit in case.tissue_units.items():
+        if name not in TISSUE_SHOWN and not name.startswith("relaxation time"):
+            continue
+        groups = [{"group": g, "q": case.tissue[f"{g}:{name}"][:3], "new": case.tissue[f"{g}:{name}"][3:]}
+                  for g in case.groups]  # fmt: skip
+        effects = [{"group": g, "q": case.tissue_effects[f"{g}:{name}"][:3], "p": case.tissue_effects[f"{g}:{name}"][3]}
+                   for g in case.groups[1:]]  # fmt: skip
+        rows.append({"quantity": name, "unit": unit, "groups": groups, "effects": effects,
+                     "kind": "difference" if unit == "%" else "ratio"})  # fmt: skip
+    return rows
+
+
 def _case(case) -> dict:
     effects = []
     for key, v in case.effects.items():
@@ -32,7 +52,7 @@ def _case(case) -> dict:
     for key, v in case.typical.items():
         group, n = key.split(":")
         typical.append({"group": group, "parameter": n, "q": v[:3], "new": v[3:], "n": case.n_specimens[group]})
-    return {"c": case, "effects": effects, "typical": typical, "recovered": _recovered(case),
+    return {"c": case, "effects": effects, "typical": typical, "recovered": _recovered(case), "tissue": _tissue(case),
             "unconverged": [s for s, v in case.stage1.items() if not v.startswith("CONVERGED")]}  # fmt: skip
 
 

@@ -17,6 +17,7 @@ broad stage-1 prior), each in its own run directory ``DIR/specimens/<name>/`` (l
     seed = 1
     sd_scale = { k1_1 = 1.0 }          # half-normal scale of a population sd (default: box width / 4)
     effect_scale = { k1_1 = 1.0 }      # sd of a group effect's prior (default: box width / 4)
+    strain = 0.03                      # nominal strain of the tissue terms (default: the smallest test's largest)
 
     [[specimen]]
     name = "A"
@@ -30,17 +31,17 @@ own (stage 1 integrates them out); fixed and tied ones stay as the configuration
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from bayestissue._validation import ValidationError, check_known_keys
 
-__all__ = ["HierarchySpec", "HierarchyOutcome", "load_hierarchy", "run_hierarchy", "design_notes"]
+__all__ = ["HierarchySpec", "HierarchyOutcome", "load_hierarchy", "run_hierarchy", "design_notes", "fit_specimen"]
 
 _TOP = ("fit_config", "parameters", "reference_group", "population", "specimen")
-_POPULATION = ("chains", "warmup", "draws", "proposals", "seed", "sd_scale", "effect_scale")
+_POPULATION = ("chains", "warmup", "draws", "proposals", "seed", "sd_scale", "effect_scale", "strain")
 _SPECIMEN = ("name", "group", "experiments")
 
 
@@ -125,6 +126,9 @@ def load_hierarchy(path: str | Path) -> HierarchySpec:
     for key, low in (("chains", 2), ("warmup", 0), ("draws", 100), ("proposals", 1), ("seed", 0)):
         if key in pop:
             _int_option(where, key, pop[key], low)
+    strain = pop.get("strain")
+    if strain is not None and (isinstance(strain, bool) or not isinstance(strain, int | float) or not 0 < strain < 2):
+        raise ValidationError(f"{where}: [population] strain", strain, "a nominal strain in (0, 2)")
     for key in ("sd_scale", "effect_scale"):
         table = pop.get(key, {})
         if not isinstance(table, Mapping):
@@ -167,6 +171,7 @@ class HierarchyOutcome:
     notes: list[str]
     diagnostics: dict
     generating: dict | None = None  # population parameter -> per specimen generating value (synthetic data)
+    tissue_terms: object = None  # :class:`~bayestissue.workflows.population_terms.PopulationTerms`, or None
 
 
 def _stage1_draws(post, names) -> tuple[np.ndarray, str, str]:
@@ -185,17 +190,17 @@ def run_hierarchy(
     config_path=None,
     progress: Callable | None = None,
     say: Callable[[str], None] | None = None,
+    client=None,
 ) -> HierarchyOutcome:
     """Stage 1 for every specimen (each in ``out_dir/specimens/<name>``; with ``resume`` a finished specimen is read
     back, not refitted), then stage 2. Every specimen's model is checked (same sampled parameters, the population
     parameters among them, orderings kept whole) before the first fit. ``progress()``, if given, returns a fresh
-    sampling progress callback and its closing function for each specimen."""
+    sampling progress callback and its closing function for each specimen. With a dask ``client`` the specimens'
+    stage-1 fits are its tasks (:func:`_stage1_on_cluster`)."""
     from bayestissue.inference.hierarchy import check_population_parameters, sample_population
-    from bayestissue.io.results import read_inference_data
     from bayestissue.mechanics import load_experiment
-    from bayestissue.workflows.calibration import run_calibration
+    from bayestissue.workflows.population_terms import population_terms
     from bayestissue.workflows.problem import build_problem
-    from bayestissue.workflows.run_directory import open_run_directory, run_manifest, run_status
 
     say = say or (lambda line: None)
     if not config.sample:
@@ -221,29 +226,20 @@ def run_hierarchy(
     for n in notes:
         say(f"design: {n}")
     cols = [names.index(n) for n in spec.parameters]
-    stage1, verdicts, checks = [], [], []
-    for k, s in enumerate(spec.specimens, 1):
-        sub = Path(out_dir) / "specimens" / s.name
-        manifest = run_manifest(config, experiments[s.name], config_path=config_path)
-        status = run_status(sub)
-        if resume and status == "finished" and (sub / "posterior.nc").is_file():
-            with open_run_directory(sub, manifest, resume=True):  # refuses a different run
-                pass
-            draws, verdict, check = _stage1_draws(read_inference_data(sub / "posterior.nc").posterior, names)
-            say(f"specimen {s.name} ({k}/{len(spec.specimens)}): finished before, read back")
-        else:
-            say(f"specimen {s.name} ({k}/{len(spec.specimens)}, group {s.group}): stage-1 calibration")
-            bar, close = progress() if progress is not None else (None, lambda: None)
-            try:
-                with open_run_directory(sub, manifest, resume=resume and status is not None, overwrite=overwrite):
-                    fitted = run_calibration(experiments[s.name], config, out_dir=sub,
-                                             resume=resume and status is not None, progress=bar, say=say)  # fmt: skip
-            finally:
-                close()
-            draws, verdict, check = _stage1_draws(fitted.idata.posterior, names)
-        stage1.append(draws[:, cols])
-        verdicts.append(verdict)
-        checks.append(check)
+    jobs = [(experiments[s.name], Path(out_dir) / "specimens" / s.name) for s in spec.specimens]
+    common = {"names": names, "resume": resume, "overwrite": overwrite, "config_path": config_path}
+    if client is None:
+        results = []
+        for k, (s, (exps, sub)) in enumerate(zip(spec.specimens, jobs, strict=True), 1):
+            say(f"specimen {s.name} ({k}/{len(jobs)}, group {s.group}): stage 1")
+            results.append(fit_specimen(exps, config, sub, progress=progress, say=say, **common))
+            say(f"specimen {s.name}: {results[-1][3]}")
+    else:
+        results = _stage1_on_cluster(client, spec, jobs, config, common, say)
+    stage1 = [r[0][:, cols] for r in results]
+    full = [r[0] for r in results]
+    verdicts = [r[1] for r in results]
+    checks = [r[2] for r in results]
     pop = spec.population
     specs = [pset.sampled[names.index(n)] for n in spec.parameters]
     say(f"stage 2: population of {len(spec.specimens)} specimens in {len(spec.groups)} groups, "
@@ -263,7 +259,66 @@ def run_hierarchy(
         seed=pop.get("seed", 0),
     )
     truth = _generating(experiments, spec)
-    return HierarchyOutcome(spec, stage1, verdicts, checks, post, notes, population_diagnostics(post), truth)
+    virtual = [(experiments[s.name][0], problems[s.name].material.expand) for s in spec.specimens]
+    try:
+        terms = population_terms(post, full, cols, virtual, strain=pop.get("strain"), seed=pop.get("seed", 0))
+    except ValidationError as exc:
+        say(f"tissue terms of the population: not computed ({exc})")
+        terms = None
+    return HierarchyOutcome(spec, stage1, verdicts, checks, post, notes, population_diagnostics(post), truth, terms)
+
+
+def fit_specimen(experiments, config, sub, *, names, resume=False, overwrite=False, config_path=None, progress=None,
+                 say=None) -> tuple[np.ndarray, str, str, str]:  # fmt: skip
+    """Stage 1 of one specimen in its run directory ``sub``: with ``resume`` a finished run is read back (its
+    manifest must match), an unfinished one continued; else a new calibration (``overwrite`` replaces an old one).
+    Returns its draws of the sampled ``names`` (natural units), its verdict, its predictive check and what was done."""
+    from bayestissue.io.results import read_inference_data
+    from bayestissue.workflows.calibration import run_calibration
+    from bayestissue.workflows.run_directory import open_run_directory, run_manifest, run_status
+
+    manifest = run_manifest(config, experiments, config_path=config_path)
+    status = run_status(sub)
+    if resume and status == "finished" and (sub / "posterior.nc").is_file():
+        with open_run_directory(sub, manifest, resume=True):  # refuses a different run
+            pass
+        post, how = read_inference_data(sub / "posterior.nc").posterior, "finished before, read back"
+    else:
+        bar, close = progress() if progress is not None else (None, lambda: None)
+        again = resume and status is not None
+        try:
+            with open_run_directory(sub, manifest, resume=again, overwrite=overwrite):
+                fitted = run_calibration(experiments, config, out_dir=sub, resume=again, progress=bar, say=say)
+        finally:
+            close()
+        post, how = fitted.idata.posterior, "calibrated"
+    draws, verdict, check = _stage1_draws(post, names)
+    return draws, verdict, check, f"{how}, {verdict.split(':')[0]}"
+
+
+def _stage1_on_cluster(client, spec, jobs, config, common, say) -> list:
+    """Every specimen's :func:`fit_specimen` as one task of the dask ``client``, each in one process (its ensembles or
+    runs one after another: the cluster's workers are the parallelism). The run directories must be on a file system
+    the workers share with this process (a LocalCluster's are). Every task runs to its end; then the first error, if
+    any, is raised (the finished specimens are read back by ``--resume``)."""
+    from dask.distributed import as_completed
+
+    serial = replace(config, sampler=replace(config.sampler, n_processes=1),
+                     nested=replace(config.nested, n_processes=1))  # fmt: skip
+    futures = {client.submit(fit_specimen, exps, serial, sub, pure=False, **common): s
+               for s, (exps, sub) in zip(spec.specimens, jobs, strict=True)}  # fmt: skip
+    say(f"stage 1: {len(futures)} specimens as tasks of {client}")
+    errors = []
+    for k, fut in enumerate(as_completed(futures), 1):
+        s = futures[fut]
+        if fut.status == "error":
+            errors.append((s, fut.exception()))
+            say(f"specimen {s.name} ({k}/{len(futures)}): failed: {errors[-1][1]}")
+        else:
+            say(f"specimen {s.name} ({k}/{len(futures)}): {fut.result()[3]}")
+    if errors:
+        raise errors[0][1]
+    return [f.result() for f in futures]
 
 
 def _generating(experiments, spec) -> dict | None:

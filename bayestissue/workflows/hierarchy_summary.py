@@ -80,6 +80,7 @@ def hierarchy_markdown(outcome) -> str:
     lines.append(f"Stage 2: {outcome.diagnostics['verdict']}. Reference group: {post.groups[0]}.")
     for n in outcome.notes:
         lines.append(f"- design: {n}")
+    lines.append(f"- priors: {post.prior_text()}")
     lines += ["", "## Group effects (90 % intervals)", ""]
     eff = effect_rows(post)
     if eff:
@@ -101,6 +102,8 @@ def hierarchy_markdown(outcome) -> str:
                      f"[{r['typical_lower']:.4g}, {r['typical_upper']:.4g}] | "
                      f"{r['new_lower']:.4g} - {r['new_upper']:.4g} | {r['pop_sd']:.3g} "
                      f"[{r['pop_sd_lower']:.3g}, {r['pop_sd_upper']:.3g}]{unit} |")  # fmt: skip
+    if getattr(outcome, "tissue_terms", None) is not None:
+        lines += ["", "## Groups in a tissue's terms", "", outcome.tissue_terms.markdown().rstrip()]
     lines += ["", "## Specimens: own fit and shrunken estimate", "",
               "| specimen | group | parameter | own fit [90 %] | shrunken [90 %] | stage-2 acceptance |",
               "|---|---|---|---|---|---|"]  # fmt: skip
@@ -164,10 +167,25 @@ def write_hierarchy(outcome, out_dir, *, figures: bool = True, stem: str = "hier
     for r in groups[: len(post.scale.names)]:  # the population sd, shared by the groups: the reference group's rows
         rows.append({"quantity": "population_sd", "group": "all", "parameter": r["parameter"], "median": r["pop_sd"],
                      "lower": r["pop_sd_lower"], "upper": r["pop_sd_upper"], "p_positive": np.nan})  # fmt: skip
+    terms = getattr(outcome, "tissue_terms", None)
+    if terms is not None:
+        for r in terms.group_rows():
+            for what, med, lo, hi in (
+                ("tissue_typical", r["typical"], r["typical_lower"], r["typical_upper"]),
+                ("tissue_new_specimen", np.nan, r["new_lower"], r["new_upper"]),
+            ):
+                rows.append({"quantity": what, "group": r["group"], "parameter": f"{r['quantity']} ({r['unit']})",
+                             "median": med, "lower": lo, "upper": hi, "p_positive": np.nan})  # fmt: skip
+        for r in terms.effect_rows():
+            rows.append({"quantity": f"tissue_effect_{r['kind']}", "group": r["group"], "parameter": r["quantity"],
+                         "median": r["median"], "lower": r["lower"], "upper": r["upper"],
+                         "p_positive": r["p_positive"]})  # fmt: skip
     cols = {k: np.array([r[k] for r in rows]) for k in rows[0]}
     write_table(out / f"{stem}_summary.csv", cols, meta={"model": "two-stage hierarchical (Lunn et al. 2013)",
                                                            "reference_group": post.groups[0],
-                                                           "level": str(INTERVAL)})  # fmt: skip
+                                                           "level": str(INTERVAL), "priors": post.prior_text(),
+                                                           **({"tissue_strain": f"{terms.strain:.6g}"}
+                                                              if terms is not None else {})})  # fmt: skip
     if draws:
         _write_draws(post, outcome.diagnostics["verdict"], out / f"{stem}.nc")
     if figures:
@@ -192,7 +210,7 @@ def _write_draws(post, verdict: str, path) -> None:
     scales = ", ".join(
         f"{n}: {'log' if lg else 'linear'}" for n, lg in zip(post.scale.names, post.scale.log, strict=True)
     )
-    attrs = {"scale": scales, "reference_group": post.groups[0], "verdict": verdict}
+    attrs = {"scale": scales, "reference_group": post.groups[0], "verdict": verdict, "priors": post.prior_text()}
     idata = az.from_dict(posterior={"m": post.m, "d": post.d, "s": post.s, "z": post.z}, dims=dims, coords=coords,
                          attrs=attrs)  # fmt: skip
     idata.to_netcdf(path)

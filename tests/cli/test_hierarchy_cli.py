@@ -63,3 +63,13 @@ def test_quick_run_and_resume(study, capsys):
     text = capsys.readouterr().out
     assert text.count("finished before, read back") == 3, text
     assert (out / "hierarchy_summary.md").read_text() == first
+    assert "## Groups in a tissue's terms" in first and "- priors: k1_1 (ln): m ~ N(" in first
+    assert re.search(r"\| incubated vs fresh \| secant modulus \(instantaneous\) \| ratio [0-9.]+ \[", first), first
+    # stage 1 as tasks of a dask cluster: the runs read back on its worker, the same answer
+    assert main([*argv, "--resume", "--workers", "1"]) == 0
+    assert capsys.readouterr().out.count("finished before, read back") == 3
+    assert (out / "hierarchy_summary.md").read_text() == first
+    # a task's refusal (an existing run, neither --resume nor --overwrite) comes back from the worker as one line
+    assert main([*argv, "--workers", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--resume continues that run, --overwrite replaces it" in err[0], err

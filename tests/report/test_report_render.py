@@ -118,3 +118,19 @@ def test_specimens_section_follows_the_record(records):
     assert "no difference shown (the interval contains 1)" in text
     none = render_report(dataclasses.replace(records, hierarchy=None))
     assert "## 8." not in none and "Do two groups" not in none
+
+
+def test_specimens_tissue_terms_follow_the_record(records):
+    """The table of the groups in a tissue's terms shows the record's values, and is left out for a case without
+    them."""
+    case = records.hierarchy.cases[0]
+    text = render_report(records)
+    assert "In a tissue's terms at nominal strain 0.05" in text
+    tissue = {**case.tissue_effects, "incubated:secant modulus (instantaneous)": [0.25, 0.2, 0.3, 0.0]}
+    moved = dataclasses.replace(records.hierarchy, cases=[dataclasses.replace(case, tissue_effects=tissue),
+                                                          *records.hierarchy.cases[1:]])  # fmt: skip
+    text = render_report(dataclasses.replace(records, hierarchy=moved))
+    assert "| secant modulus (instantaneous) | kPa |" in text and "| ratio 0.25 [0.2, 0.3] |" in text
+    empty = dataclasses.replace(case, tissue_units={}, tissue={}, tissue_effects={}, tissue_strain=0.0)
+    bare = dataclasses.replace(records.hierarchy, cases=[empty, *records.hierarchy.cases[1:]])
+    assert "In a tissue's terms" not in render_report(dataclasses.replace(records, hierarchy=bare))
