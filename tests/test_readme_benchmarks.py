@@ -22,6 +22,8 @@ SMOKE = {
                               "90 % intervals covering the generating value"),
     "hierarchy_vs_joint.py": (["--stage1-steps", "200", "--steps", "200", "--walkers", "48", "--population-draws",
                                "300"], "largest quantile difference"),
+    "rosenbrock_evidence.py": (["--n-live", "100", "--n-eff", "200", "--runs", "2", "--blocks", "1", "--depth", "2",
+                                "--exact-draws", "20000"], "within 2 of their MC errors"),
     "compare_engines.py": ([str(ROOT / "figures" / "calibration_summary_T1_mirror.csv"),
                             str(ROOT / "figures" / "calibration_summary_T1_mirror.csv")], "marginals AGREE"),
 }  # fmt: skip

@@ -46,6 +46,7 @@ __all__ = [
     "ParameterChecks",
     "ConvergenceReport",
     "assess_convergence",
+    "quantile_mcse",
 ]
 
 
@@ -248,3 +249,20 @@ def assess_convergence(
         time_s=float(sample.time_s),
         apart=tuple(apart),
     )
+
+
+def quantile_mcse(draws, ess_bulk, ess_tail, levels=(0.05, 0.5, 0.95)) -> np.ndarray:
+    """Monte Carlo error ``(ndim, len(levels))`` of the quantiles of ``draws`` ``(n, ndim)`` given each parameter's
+    effective sample size: the bulk ESS for the median, the tail ESS for the others. The error of the probability
+    level, :math:`\\sqrt{p(1-p)/n_\\text{eff}}`, is carried to the parameter's scale through the draws' own inverse
+    CDF, :math:`(F^{-1}(p + \\sigma_p) - F^{-1}(p - \\sigma_p))/2` (Vehtari et al. 2021, doi:10.1214/20-BA1221,
+    section 4.3); for independent normal draws it tends to :math:`\\sqrt{p(1-p)/n}/\\phi(z_p)` sd."""
+    x = np.asarray(draws, dtype=float)
+    out = np.empty((x.shape[1], len(levels)))
+    for k, p in enumerate(levels):
+        ess = np.asarray(ess_bulk if p == 0.5 else ess_tail, dtype=float)
+        for j in range(x.shape[1]):
+            s = np.sqrt(p * (1.0 - p) / max(ess[j], 1.0))
+            lo, hi = np.quantile(x[:, j], [max(p - s, 0.0), min(p + s, 1.0)])
+            out[j, k] = 0.5 * (hi - lo)
+    return out

@@ -31,8 +31,20 @@ known, every run's largest log-likelihood must come within :math:`d/2` of it (``
 number of sampled parameters: posterior draws of a :math:`d`-dimensional Gaussian lie about :math:`d/2` below the
 peak, the best of thousands much closer).
 
+The quantiles: each run estimates the 5, 50 and 95 % quantiles of every parameter from its weighted points
+(:func:`weighted_quantile`) and their Monte Carlo error for itself, by a Poisson bootstrap of its points (each point's
+weight multiplied by an independent Poisson(1) count, 200 replicates; Hanley & MacGibbon 2006). Whether those
+errors are right is what independent runs can tell (Higson et al. 2018, doi:10.1093/mnras/sty1185, compare the
+run-to-run scatter with the bootstrap's): per parameter and level, :math:`\\chi^2 = \\sum_k (\\hat q_k -
+\\bar q)^2/\\sigma_k^2` on :math:`n - 1` degrees of freedom must not fall below :math:`p = 0.01/m` (Bonferroni over
+the :math:`m` quantities tested). The pooled draws' quantile then carries the Monte Carlo error
+:math:`\\max(\\sqrt{\\sum_k \\sigma_k^2}/n,\\ s_{\\hat q}/\\sqrt n)` (the runs' own errors, or their scatter if larger),
+as :attr:`NestedSample.log_z_err` does for the evidence. Points of one run are not independent draws (nautilus's
+shells share their bounds), which is exactly what the comparison checks.
+
 Verdict (:func:`assess_nested`): at least 4 runs, each finished (not stopped by an evaluation cap) and reaching the
-peak, R-hat < 1.01, bulk and tail ESS >= 400 for every sampled parameter, the evidence consistent as above.
+peak, R-hat < 1.01, bulk and tail ESS >= 400 for every sampled parameter, the evidence consistent as above, and the
+quantiles' scatter consistent with their errors.
 """
 
 from __future__ import annotations
@@ -45,7 +57,10 @@ from scipy.stats import chi2
 
 from bayestissue.inference.diagnostics import ParameterChecks, rhat_ensembles
 
-__all__ = ["NestedReport", "assess_nested", "weighted_ess", "weighted_quantile"]
+__all__ = ["NestedReport", "assess_nested", "quantile_errors", "weighted_ess", "weighted_quantile"]
+
+#: the quantiles every run estimates with its error; the bootstrap replicates
+LEVELS, N_BOOT = (0.05, 0.5, 0.95), 200
 
 
 def weighted_quantile(x, w, q) -> np.ndarray:
@@ -80,6 +95,28 @@ def weighted_ess(x, w) -> tuple[np.ndarray, np.ndarray]:
     return bulk, tail
 
 
+def quantile_errors(x, w, levels=LEVELS, *, n_boot: int = N_BOOT, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """One run's weighted quantiles ``(ndim, len(levels))`` and their Poisson-bootstrap standard errors (module
+    docstring): every replicate reweights the points by independent Poisson(1) counts."""
+    x = np.asarray(x, dtype=float)
+    w = np.asarray(w, dtype=float) / np.sum(w)
+    rng = np.random.default_rng(seed)
+    counts = [rng.poisson(1.0, w.size) for _ in range(n_boot)]
+    est, err = np.empty((x.shape[1], len(levels))), np.empty((x.shape[1], len(levels)))
+    for j in range(x.shape[1]):
+        o = np.argsort(x[:, j], kind="stable")
+        xs, ws = x[o, j], w[o]
+        est[j] = weighted_quantile(xs, ws, levels)
+        boot = np.empty((n_boot, len(levels)))
+        for b, c in enumerate(counts):
+            wb = ws * c[o]
+            total = wb.sum()
+            cdf = (np.cumsum(wb) - 0.5 * wb) / total
+            boot[b] = np.interp(levels, cdf, xs)
+        err[j] = boot.std(axis=0, ddof=1)
+    return est, err
+
+
 @dataclass(frozen=True)
 class NestedReport(ParameterChecks):
     """Diagnostics of a :class:`~bayestissue.inference.sampling.NestedSample`."""
@@ -95,6 +132,8 @@ class NestedReport(ParameterChecks):
     n_draws: int
     time_s: float
     max_log_l: np.ndarray  # (n_runs,) largest log-likelihood of each run
+    q_runs: np.ndarray  # (n_runs, ndim, len(LEVELS)) each run's weighted quantiles
+    q_errs: np.ndarray  # (n_runs, ndim, len(LEVELS)) and their bootstrap errors
     reference_log_l: float | None = None
     rhat_max: float = 1.01
     ess_min: float = 400.0
@@ -120,6 +159,45 @@ class NestedReport(ParameterChecks):
         return bool(self.log_z_spread < self.spread_max and self.log_z_p >= self.p_min)
 
     @property
+    def quantile_p(self) -> np.ndarray:
+        """``(ndim, len(LEVELS))`` p-values of the runs' quantile scatter against their own errors (chi-square,
+        n - 1 dof); NaN with one run."""
+        if self.q_runs.shape[0] < 2:
+            return np.full(self.q_runs.shape[1:], np.nan)
+        w = 1.0 / np.maximum(self.q_errs, 1e-300) ** 2
+        mean = np.sum(w * self.q_runs, axis=0) / np.sum(w, axis=0)
+        return chi2.sf(np.sum(w * (self.q_runs - mean) ** 2, axis=0), self.q_runs.shape[0] - 1)
+
+    @property
+    def quantiles_ok(self) -> bool:
+        p = self.quantile_p
+        return bool(self.q_runs.shape[0] < 2 or np.all(p >= self.p_min / p.size))
+
+    @property
+    def quantile_mc_error(self) -> np.ndarray:
+        """``(ndim, len(LEVELS))`` Monte Carlo error of the pooled quantiles (module docstring)."""
+        n = self.q_runs.shape[0]
+        own = np.sqrt(np.sum(self.q_errs**2, axis=0)) / n
+        scatter = self.q_runs.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else 0.0
+        return np.maximum(own, scatter)
+
+    def _quantile_clause(self) -> str:
+        """The quantities whose run-to-run scatter exceeds the runs' own errors, worst first (at most three)."""
+        p = self.quantile_p
+        bad = np.argwhere(p < self.p_min / p.size)
+        bad = sorted(bad.tolist(), key=lambda jk: p[jk[0], jk[1]])
+        parts = []
+        for j, k in bad[:3]:
+            scatter = self.q_runs[:, j, k].std(ddof=1)
+            own = np.sqrt(np.mean(self.q_errs[:, j, k] ** 2))
+            runs = ", ".join(f"{v:.4g}" for v in self.q_runs[:, j, k])
+            parts.append(f"{100 * LEVELS[k]:g} % quantile of {self.names[j]} (runs {runs}: scatter {scatter:.2g} vs "
+                         f"own errors {own:.2g}, p = {p[j, k]:.1g})")  # fmt: skip
+        more = f" and {len(bad) - 3} more" if len(bad) > 3 else ""
+        return (f"runs disagree beyond their own Monte Carlo errors (p < {self.p_min:g}/{p.size} needed): "
+                + "; ".join(parts) + more)  # fmt: skip
+
+    @property
     def short_of_peak(self) -> np.ndarray:
         """Runs whose largest log-likelihood stays more than d/2 below ``reference_log_l``."""
         if self.reference_log_l is None:
@@ -134,6 +212,7 @@ class NestedReport(ParameterChecks):
             and not np.any(self.short_of_peak)
             and np.all(self.parameters_ok)
             and self.evidence_ok
+            and self.quantiles_ok
         )
 
     def verdict(self) -> str:
@@ -146,7 +225,8 @@ class NestedReport(ParameterChecks):
             return (
                 f"CONVERGED: {self.log_z.size} nested runs, R-hat < {self.rhat_max} (max {np.max(self.rhat):.4f}), "
                 f"bulk ESS >= {self.ess_min:g} (min {np.min(self.ess_bulk):.0f}), tail ESS >= {self.ess_min:g} "
-                f"(min {np.min(self.ess_tail):.0f}), {evidence}"
+                f"(min {np.min(self.ess_tail):.0f}), {evidence}, 5/50/95 % quantiles consistent with their own errors "
+                f"(min p = {np.min(self.quantile_p):.2g})"
             )
         lines = []
         if self.log_z.size < self.min_runs:
@@ -166,6 +246,8 @@ class NestedReport(ParameterChecks):
             bad = [n for n, e in zip(self.names, ess, strict=True) if not e >= self.ess_min]
             if bad:
                 lines.append(f"{label} ESS < {self.ess_min:g} for {bad} (min {np.min(ess):.0f})")
+        if not self.quantiles_ok:
+            lines.append(self._quantile_clause())
         if not self.evidence_ok:
             lines.append(
                 f"evidence not consistent across runs (range < {self.spread_max:g} and p >= {self.p_min:g} "
@@ -183,11 +265,15 @@ def assess_nested(
     ndim = draws.shape[-1]
     with np.errstate(invalid="ignore", divide="ignore"):  # runs collapsed onto one point: NaN, i.e. not < 1.01
         rhat = rhat_ensembles(draws[:, :, None, :]) if draws.shape[0] >= 2 else np.full(ndim, np.nan)
-    bulk, tail = np.zeros(ndim), np.zeros(ndim)
-    for r in sample.runs:
-        b, t = weighted_ess(sample.problem.canonical(r.points), r.weights)
+    bulk, tail, q_runs, q_errs = np.zeros(ndim), np.zeros(ndim), [], []
+    for k, r in enumerate(sample.runs):
+        pts = sample.problem.canonical(r.points)
+        b, t = weighted_ess(pts, r.weights)
         bulk += b
         tail += t
+        q, e = quantile_errors(pts, r.weights, seed=k)
+        q_runs.append(q)
+        q_errs.append(e)
     return NestedReport(
         names=tuple(sample.names),
         rhat=rhat,
@@ -200,6 +286,8 @@ def assess_nested(
         n_draws=int(draws.shape[0] * draws.shape[1]),
         time_s=float(sample.time_s),
         max_log_l=np.array([np.max(r.log_l) for r in sample.runs]),
+        q_runs=np.array(q_runs),
+        q_errs=np.array(q_errs),
         reference_log_l=None if reference_log_l is None else float(reference_log_l),
         rhat_max=rhat_max,
         ess_min=ess_min,

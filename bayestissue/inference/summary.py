@@ -2,7 +2,10 @@
 
 One row per sampled parameter. Columns: the paper's Table 1 value and the generating value of a
 synthetic replica (when known), the least-squares estimate with its Wald interval, the posterior
-median, mean, sd and 90 % equal-tailed interval, bulk and tail ESS, between-ensemble R-hat, the
+median, mean, sd and 90 % equal-tailed interval, the Monte Carlo error of the 5/50/95 % quantiles (``mcse_q05``,
+``mcse_median``, ``mcse_q95``: the nested engine's from its runs' bootstraps, :mod:`~bayestissue.inference.evidence`;
+the ensembles' from their ESS, :func:`~bayestissue.inference.diagnostics.quantile_mcse`), bulk and tail ESS,
+between-ensemble R-hat, the
 *contraction*
 
 .. math:: c = 1 - \\frac{\\operatorname{Var}_{\\text{post}}(u)}{\\operatorname{Var}_{\\text{prior}}(u)}
@@ -25,6 +28,7 @@ import math
 import numpy as np
 
 from bayestissue._validation import ValidationError
+from bayestissue.inference.diagnostics import quantile_mcse
 
 __all__ = ["PRIOR_DOMINATED_CONTRACTION", "draw_log_likelihood", "generating_fit", "summary_table", "table_markdown"]
 
@@ -132,6 +136,11 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
                 flags[j].append("prior_dominated")
     if report is not None:
         cols.update(ess_bulk=report.ess_bulk, ess_tail=report.ess_tail, rhat=report.rhat)
+        mc = getattr(report, "quantile_mc_error", None)  # the nested engine's (inference.evidence)
+        if mc is None and sample is not None:  # the ensembles': from their ESS
+            mc = quantile_mcse(flat, report.ess_bulk, report.ess_tail)
+        if mc is not None:
+            cols.update(mcse_q05=mc[:, 0], mcse_median=mc[:, 1], mcse_q95=mc[:, 2])
         for j in np.flatnonzero(~report.parameters_ok):
             flags[j].append("not_converged")
         meta["convergence"] = report.verdict()

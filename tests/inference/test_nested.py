@@ -94,6 +94,40 @@ def test_runs_are_checked_against_a_known_peak(linear_run):
     assert "missed the peak" in missed.verdict()
 
 
+def test_quantile_errors_match_the_run_to_run_scatter_and_the_closed_form(linear_run):
+    """Each run's own (bootstrap) errors of its 5/50/95 % quantiles against the exact quantiles of the Gaussian
+    posterior: the standardised deviations (4 runs x 3 parameters x 3 levels) have an sd of about 1 (0.6-1.6: the
+    sd of 36 draws of N(0, 1) lies within 0.75-1.25 with probability 0.99, wider here because the 3 levels of one run
+    share its points), the runs' scatter is consistent with those errors, and the pooled quantiles lie within 4
+    Monte Carlo errors of the exact ones. Negative control: one run's points moved by 0.5 posterior sd make the
+    verdict fail on the quantiles and name them."""
+    import dataclasses
+
+    from scipy.special import ndtri
+
+    from bayestissue.inference.evidence import LEVELS, weighted_quantile
+
+    problem, sample = linear_run
+    mean, cov = linear_gaussian_posterior(problem)
+    exact = mean[:, None] + np.sqrt(np.diag(cov))[:, None] * ndtri(np.array(LEVELS))[None, :]
+    report = assess_nested(sample)
+    z = (report.q_runs - exact[None]) / report.q_errs
+    assert 0.6 < z.std() < 1.6, z.std()
+    assert report.quantiles_ok and np.min(report.quantile_p) > 0.01 / 9
+    pts, w, _ = sample.weighted()
+    pooled = np.array([weighted_quantile(pts[:, j], w, LEVELS) for j in range(pts.shape[1])])
+    assert np.all(np.abs(pooled - exact) < 4 * report.quantile_mc_error)
+    assert "quantiles consistent with their own errors" in report.verdict()
+    moved = list(sample.runs)
+    shift = np.zeros(pts.shape[1])
+    shift[1] = 0.5 * np.sqrt(cov[1, 1])
+    moved[0] = dataclasses.replace(moved[0], points=moved[0].points + shift)
+    bad = assess_nested(dataclasses.replace(sample, runs=moved))
+    assert not bad.quantiles_ok and not bad.converged
+    assert "runs disagree beyond their own Monte Carlo errors" in bad.verdict()
+    assert "quantile of x1" in bad.verdict() and "quantile of x0" not in bad.verdict()
+
+
 def test_two_modes_recovered_with_their_weights():
     """Modes of mass 0.3 and 0.7 (exact, see lopsided_two_mode_problem): every run finds both, the pooled weight of
     the heavier is 0.7 within 0.04 (about 4 standard errors at the pooled ESS)."""
