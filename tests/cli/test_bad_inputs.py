@@ -309,6 +309,7 @@ def groups_study(tmp_path):
         ('reference_group = "fresh"', 'reference_group = "old"', r"reference_group: expected one of the specimens"),
         ("seed = 1", "seed = 1\nchains = 1", r"\[population\] chains: expected an integer >= 2, got 1"),
         ("seed = 1", "sd_scale = { k1_1 = -1 }", r"\[population\] sd_scale.k1_1: expected a positive number"),
+        ("seed = 1", "strain = 5", r"\[population\] strain: expected a nominal strain in \(0, 2\), got 5"),
     ],
 )  # fmt: skip
 def test_bad_specimens_file(groups_study, capsys, old, new, pattern):
@@ -327,3 +328,16 @@ def test_specimens_of_different_models_refused(groups_study, capsys):
     _refused(capsys, ["hierarchy", str(groups_study / "specimens.toml"), "--out", str(groups_study / "run"), "--quick"],
              r"specimen incubated_1 model: expected the sampled parameters of specimen fresh_1")  # fmt: skip
     assert not (groups_study / "run" / "specimens").exists()
+
+
+CLUSTER_OPTIONS = [
+    (["--workers", "0"], r"--workers: expected an integer >= 1, got 0"),
+    (["--scheduler", "host:8786"], r"--scheduler: expected a scheduler address"),
+]
+
+
+@pytest.mark.parametrize("args, pattern", CLUSTER_OPTIONS)
+def test_bad_cluster_options_refused(groups_study, capsys, args, pattern):
+    _refused(capsys, ["hierarchy", str(groups_study / "specimens.toml"), "--out", str(groups_study / "run"), *args],
+             pattern)  # fmt: skip
+    assert not (groups_study / "run").exists()
