@@ -149,6 +149,11 @@ class ParameterChecks:
         """Smallest bulk ESS divided by the wall time of the sampling."""
         return float(np.min(self.ess_bulk) / self.time_s) if self.time_s > 0 else np.nan
 
+    def quantile_errors(self, draws) -> np.ndarray:
+        """``(ndim, 3)`` Monte Carlo errors of the 5/50/95 % quantiles of ``draws``: from the bulk and tail ESS
+        (:func:`quantile_mcse`); the nested engine's report has its runs' own (its override)."""
+        return quantile_mcse(draws, self.ess_bulk, self.ess_tail)
+
 
 @dataclass(frozen=True)
 class ConvergenceReport(ParameterChecks):

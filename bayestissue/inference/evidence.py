@@ -173,6 +173,10 @@ class NestedReport(ParameterChecks):
         p = self.quantile_p
         return bool(self.q_runs.shape[0] < 2 or np.all(p >= self.p_min / p.size))
 
+    def quantile_errors(self, draws=None) -> np.ndarray:
+        """:attr:`quantile_mc_error` (the runs' bootstraps; ``draws`` are not needed)."""
+        return self.quantile_mc_error
+
     @property
     def quantile_mc_error(self) -> np.ndarray:
         """``(ndim, len(LEVELS))`` Monte Carlo error of the pooled quantiles (module docstring)."""

@@ -28,7 +28,6 @@ import math
 import numpy as np
 
 from bayestissue._validation import ValidationError
-from bayestissue.inference.diagnostics import quantile_mcse
 
 __all__ = ["PRIOR_DOMINATED_CONTRACTION", "draw_log_likelihood", "generating_fit", "summary_table", "table_markdown"]
 
@@ -136,10 +135,8 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
                 flags[j].append("prior_dominated")
     if report is not None:
         cols.update(ess_bulk=report.ess_bulk, ess_tail=report.ess_tail, rhat=report.rhat)
-        mc = getattr(report, "quantile_mc_error", None)  # the nested engine's (inference.evidence)
-        if mc is None and sample is not None:  # the ensembles': from their ESS
-            mc = quantile_mcse(flat, report.ess_bulk, report.ess_tail)
-        if mc is not None:
+        if sample is not None:
+            mc = report.quantile_errors(flat)
             cols.update(mcse_q05=mc[:, 0], mcse_median=mc[:, 1], mcse_q95=mc[:, 2])
         for j in np.flatnonzero(~report.parameters_ok):
             flags[j].append("not_converged")

@@ -308,17 +308,18 @@ def _stage1_on_cluster(client, spec, jobs, config, common, say) -> list:
     futures = {client.submit(fit_specimen, exps, serial, sub, pure=False, **common): s
                for s, (exps, sub) in zip(spec.specimens, jobs, strict=True)}  # fmt: skip
     say(f"stage 1: {len(futures)} specimens as tasks of {client}")
-    errors = []
+    errors, results = [], {}
     for k, fut in enumerate(as_completed(futures), 1):
         s = futures[fut]
         if fut.status == "error":
-            errors.append((s, fut.exception()))
-            say(f"specimen {s.name} ({k}/{len(futures)}): failed: {errors[-1][1]}")
+            errors.append(fut.exception())
+            say(f"specimen {s.name} ({k}/{len(futures)}): failed: {errors[-1]}")
         else:
-            say(f"specimen {s.name} ({k}/{len(futures)}): {fut.result()[3]}")
+            results[s.name] = fut.result()
+            say(f"specimen {s.name} ({k}/{len(futures)}): {results[s.name][3]}")
     if errors:
-        raise errors[0][1]
-    return [f.result() for f in futures]
+        raise errors[0]
+    return [results[s.name] for s in spec.specimens]
 
 
 def _generating(experiments, spec) -> dict | None:
