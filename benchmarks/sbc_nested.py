@@ -10,9 +10,9 @@ narrower than Table 1's (so that every prior draw is a well-posed creep curve; t
 parameter at Table 1's T1 value, known noise sd. One nested run per replication (``--live`` live points,
 ``--neff`` importance ESS, one network per bound); replications in parallel processes.
 
-Printed: per parameter a chi-square test of the ranks in 10 bins (9 dof) and a KS test of the randomised fractional
-ranks, with p-values; the rank histograms go to ``--out`` (PNG) when given. No pass/fail: read the p-values (with
-three parameters, one p below 0.01 by chance has probability about 3 %).
+Printed (``sbc_ranks.py``): per parameter a chi-square test of the ranks in 10 bins (9 dof) and a KS test of the
+randomised fractional ranks, with p-values; the rank histograms go to ``--out`` (PNG) when given. No pass/fail: read
+the p-values (with three parameters, one p below 0.01 by chance has probability about 3 %).
 
     python benchmarks/sbc_nested.py [--reps 100] [--n-obs 60] [--draws 99] [--live 200] [--neff 400] [--out sbc.png]
 """
@@ -23,6 +23,7 @@ import argparse
 import dataclasses
 import multiprocessing as mp
 import os
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -30,7 +31,9 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
-from scipy import stats  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sbc_ranks import rank_figure, rank_lines, rank_tests  # noqa: E402
 
 from bayestissue.inference import NestedOptions, sample_nested  # noqa: E402
 from bayestissue.mechanics import load_experiment, simulate  # noqa: E402
@@ -77,7 +80,7 @@ def _replication(r, args):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=100)
-    ap.add_argument("--n-obs", type=int, default=60, help="first observations of T1 kept (6 s apart)")
+    ap.add_argument("--n-obs", type=int, default=60, help="first observations of T1 kept (3 s apart)")
     ap.add_argument("--draws", type=int, default=99, help="posterior draws ranked against (L)")
     ap.add_argument("--live", type=int, default=200)
     ap.add_argument("--neff", type=int, default=400)
@@ -104,32 +107,12 @@ def main(argv=None) -> int:
         f"{n} replications ({skipped} skipped: forward solve failed at the generating values), "
         f"{time.perf_counter() - t0:.0f} s wall, {np.median(times):.1f} s median per nested run"
     )
-    bins = 10
-    edges = np.linspace(0, args.draws + 1, bins + 1)
-    u = (ranks + np.random.default_rng(0).random(ranks.shape)) / (args.draws + 1)
-    for j, name in enumerate(SAMPLED):
-        counts, _ = np.histogram(ranks[:, j], bins=edges)
-        p_chi2 = stats.chisquare(counts).pvalue
-        p_ks = stats.kstest(u[:, j], "uniform").pvalue
-        print(f"{name}: rank counts per decile {counts.tolist()}; chi-square p = {p_chi2:.3f}, KS p = {p_ks:.3f}")
+    tests = rank_tests(ranks, args.draws, list(SAMPLED))
+    for line in rank_lines(tests):
+        print(line)
     if args.out:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, axes = plt.subplots(1, len(SAMPLED), figsize=(4 * len(SAMPLED), 3.2))
-        lo, hi = stats.binom.ppf([0.005, 0.995], n, 1 / bins)
-        for ax, (j, name) in zip(axes, enumerate(SAMPLED), strict=True):
-            ax.hist(ranks[:, j], bins=edges, color="tab:blue", edgecolor="w")
-            ax.axhspan(lo, hi, color="0.85", zorder=-1, label="99 % band of uniform ranks")
-            ax.set_xlabel(f"rank of the generating {name} among {args.draws} draws")
-            ax.set_ylabel("replications")
-        axes[0].legend(fontsize=8, loc="lower left")
-        fig.suptitle(f"simulation-based calibration of the nested engine, {n} replications (short T1 creep)")
-        fig.tight_layout()
-        fig.savefig(args.out, dpi=110)
-        print(f"wrote {args.out}")
+        title = f"simulation-based calibration of the nested engine, {n} replications (short T1 creep)"
+        rank_figure([(ranks, tests, f" among {args.draws} draws")], args.draws, list(SAMPLED), title, args.out)
     return 0
 
 

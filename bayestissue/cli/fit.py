@@ -245,6 +245,8 @@ def _report(outcome, config, names, out, no_figures) -> None:
     if outcome.report is not None:
         rep = outcome.report
         print(rep.verdict())
+        for line in getattr(rep, "advice", list)():
+            print(f"what to do: {line}")
         print("posterior predictive check:", outcome.table["meta"]["fit_check"])
         if config.engine == "nested":
             print(f"log evidence: {outcome.sample.log_z:.3f} +- {outcome.sample.log_z_err:.3f}")

@@ -174,10 +174,13 @@ class ConvergenceReport(ParameterChecks):
     tau_factor: float
     time_s: float
     apart: tuple = ()  # ensembles_apart(...) entries, computed when R-hat fails
+    engine_check: object = None  # an EngineCheck (bayestissue.inference.engine_check) when another engine ran
 
     @property
     def converged(self) -> bool:
-        return bool(np.all(self.parameters_ok) and np.all(self.length_ok))
+        """Every criterion met, and no other engine's sample of the same posterior contradicts this one."""
+        agree = self.engine_check is None or self.engine_check.agree
+        return bool(np.all(self.parameters_ok) and np.all(self.length_ok) and agree)
 
     def verdict(self) -> str:
         """Plain-language verdict, one line per failed criterion."""
@@ -215,6 +218,8 @@ class ConvergenceReport(ParameterChecks):
                 f"ensembles {short.tolist()} shorter than {self.tau_factor:g} tau or tau not yet stable ({need}; "
                 "production steps, pruning and adaptation not counted)"
             )
+        if self.engine_check is not None and not self.engine_check.agree:
+            lines.append(self.engine_check.text())
         n_stuck = int(self.stuck.sum())
         head = (
             f"CONVERGED: R-hat < {self.rhat_max} (max {np.max(self.rhat):.4f}), bulk ESS >= "
@@ -224,9 +229,39 @@ class ConvergenceReport(ParameterChecks):
             if self.converged
             else "NOT CONVERGED: " + "; ".join(lines)
         )
+        if self.converged and self.engine_check is not None:
+            head += f"; {self.engine_check.text()}"
         if n_stuck:
             head += f". {n_stuck} stuck walker(s) flagged (acceptance well below the median)"
         return head
+
+
+    def advice(self) -> list[str]:
+        """What a user can do about a NOT CONVERGED verdict: one line per kind of failure (none when converged)."""
+        if self.converged:
+            return []
+        out = []
+        if not np.all(self.length_ok):
+            need = self.tau_factor * np.max(self.tau[~self.length_ok])
+            steps = int(np.ceil(1.5 * need / 1000.0) * 1000)  # tau still grows while a run is short: half again
+            out.append(
+                f"run longer: the same command with --resume and [sampler] max_steps = {steps} (a resume may raise "
+                f"it; the ensembles go on from their checkpoints; 50 tau is {need:.0f} steps at today's tau)"
+            )
+        if self.apart:
+            out.append(
+                'ensembles in different regions: moves = "mixture" with proposal = "shared" lets each jump into a '
+                'region another found; engine = "nested" needs no start at all'
+            )
+        elif not np.all(self.parameters_ok) and np.all(self.length_ok):
+            out.append("R-hat or ESS short although every ensemble is long enough: raise [sampler] max_steps")
+        if self.engine_check is not None and not self.engine_check.agree:
+            out.append(
+                'the nested runs found mass the ensembles did not visit: use engine = "nested" for this posterior '
+                "(its verdict and evidence), or more ensembles from more starts ([sampler] n_ensembles, [warmstart] "
+                "n_starts) and longer runs; cross_check.md lists every quantile of both"
+            )
+        return out
 
 
 def assess_convergence(

@@ -171,7 +171,8 @@ def to_inference_data(
     for name, value in (rhat or {}).items():
         idata.posterior[name].attrs["rhat_ensembles"] = float(value)
     for name, target in problem.material.tied.items():
-        idata.posterior[target].attrs.setdefault("tied", []).append(name)
+        if target in idata.posterior:  # a tie to a fixed parameter takes its fixed value: nothing sampled to mark
+            idata.posterior[target].attrs.setdefault("tied", []).append(name)
     return idata
 
 

@@ -10,7 +10,9 @@ Steps of :func:`run_calibration` (used by ``bayestissue fit`` and ``studies/cali
    values, their likelihood-ratio test against the model with them released
    (:mod:`bayestissue.workflows.constraints`);
 4. emcee (``[sampler] engine``, the default): the sampler's coordinates adapted to the best optimum, ensembles
-   started at distinct plausible optima (Laplace scatter), automatic length, diagnostics; or nested: independent
+   started at distinct plausible optima (Laplace scatter), automatic length, diagnostics, and with
+   ``[sampler] cross_check = "nested"`` a nested sample of the same posterior compared with it quantile by quantile
+   (:mod:`bayestissue.inference.engine_check`; a disagreement is NOT CONVERGED); or nested: independent
    nautilus runs from the prior, the evidence, diagnostics (:mod:`bayestissue.inference.evidence`);
 5. ``InferenceData`` with provenance, the summary table and the tissue terms (moduli, stresses, relaxation with
    intervals: :mod:`bayestissue.workflows.tissue_terms`), written when ``out_dir`` is given.
@@ -20,7 +22,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +44,7 @@ from bayestissue.inference import (
     sample_posterior,
 )
 from bayestissue.inference.coordinates import adapt_coordinates
+from bayestissue.inference.engine_check import compare_samples
 from bayestissue.inference.fit_check import fit_check, fit_check_text
 from bayestissue.inference.posterior import evenly, to_inference_data
 from bayestissue.inference.sampling.nested import peak_log_likelihood
@@ -169,6 +172,10 @@ def run_calibration(
         )
         times["sampling"] = time.perf_counter() - t0
         report = assess_convergence(sample, tau_factor=config.sampler.tau_factor)
+        if config.cross_check == "nested":
+            t0 = time.perf_counter()
+            report = _cross_check(problem, sample, report, config, ckpt, resume, say)
+            times["cross_check"] = time.perf_counter() - t0
         engine_attrs = {"acceptance_mean": float(np.mean(report.acceptance))}
     attrs = dict(provenance or {})
     attrs.update(
@@ -194,6 +201,24 @@ def run_calibration(
     outcome.table = summary_table(problem, best, sample, report, references=refs)
     outcome.table["meta"]["fit_check"] = idata.posterior.attrs["fit_check"]
     return _finish(outcome, experiments, out_dir, say)
+
+
+def _cross_check(problem, sample, report, config, ckpt, resume, say):
+    """``report`` with the comparison of ``sample`` (emcee) and a nested sample of the same posterior under the
+    ``[nested]`` settings (:mod:`bayestissue.inference.engine_check`), checkpointed in ``ckpt/cross_check``."""
+    opts = config.nested
+    say(f"cross-check: {opts.n_runs} nested run(s) of the same posterior, {opts.n_live} live points each")
+    t0 = time.perf_counter()
+    path = None if ckpt is None else Path(ckpt) / "cross_check"
+    nested = sample_nested(problem, options=opts, checkpoint=path, resume=resume, rng=[config.seed, 36])
+    nested_report = assess_nested(nested)
+    a, b = sample.flat(), nested.flat()
+    check = compare_samples(
+        problem.names, a, report.quantile_errors(a), b, nested_report.quantile_errors(b), problem.parameters.to_unit,
+        other_verdict=nested_report.verdict().split(":")[0], time_s=time.perf_counter() - t0,
+    )  # fmt: skip
+    say(check.text())
+    return replace(report, engine_check=check)
 
 
 def _finish(outcome: CalibrationOutcome, experiments, out_dir, say) -> CalibrationOutcome:
@@ -273,6 +298,10 @@ def _write(outcome: CalibrationOutcome, out_dir) -> None:
     (out / "summary.md").write_text(table_markdown(outcome.table))
     outcome.files["summary_csv"] = out / "summary.csv"
     outcome.files["summary_md"] = out / "summary.md"
+    check = getattr(outcome.report, "engine_check", None)
+    if check is not None:
+        (out / "cross_check.md").write_text(check.markdown())
+        outcome.files["cross_check"] = out / "cross_check.md"
     if outcome.tissue_terms is not None:
         (out / "tissue_terms.md").write_text(outcome.tissue_terms.markdown())
         outcome.files["tissue_terms"] = out / "tissue_terms.md"

@@ -55,7 +55,7 @@ from bayestissue.inference.likelihood import NOISE_MODELS, make_noise
 from bayestissue.inference.sampling import NestedOptions, SamplerOptions
 from bayestissue.io.results import read_config
 from bayestissue.workflows.coordinates import COORDINATES
-from bayestissue.workflows.schema import ENGINES, check_mapping
+from bayestissue.workflows.schema import CROSS_CHECKS, ENGINES, check_mapping
 
 __all__ = ["CalibrationConfig", "config_from_mapping", "load_config"]
 
@@ -91,6 +91,9 @@ class CalibrationConfig:
     tied : mapping name -> name: parameters that take another parameter's value instead of being
         sampled, e.g. ``{"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}`` for two fibre
         families with one law (the mirror-symmetric model). Off by default.
+    cross_check : ``"none"`` or ``"nested"``: after the emcee engine, a nested run of the same posterior (the
+        :attr:`nested` settings) compared quantile by quantile (:mod:`bayestissue.inference.engine_check`); a
+        disagreement makes the verdict NOT CONVERGED.
     coordinates : the sampler's coordinate system (``[sampler] coordinates``): ``box`` (logit of the
         scaled box per parameter), ``creep`` or ``ramp`` (:mod:`bayestissue.inference.coordinates`; need mu,
         kappa, ginf2, gamma2, beta2 sampled).
@@ -119,6 +122,7 @@ class CalibrationConfig:
     exchangeable: Sequence[Sequence[str]] | None = None
     tied: Mapping = field(default_factory=dict)
     coordinates: str = "box"
+    cross_check: str = "none"
     specimen: tuple | None = None
 
     def __post_init__(self):
@@ -134,6 +138,8 @@ class CalibrationConfig:
             raise ValidationError("warmstart.n_starts", self.n_starts, "an integer >= 0")
         if self.engine not in ENGINES:
             raise ValidationError("sampler.engine", self.engine, f"one of {list(ENGINES)}")
+        if self.cross_check not in CROSS_CHECKS:
+            raise ValidationError("sampler.cross_check", self.cross_check, f"one of {list(CROSS_CHECKS)}")
         if self.ls_jacobian not in ("differences", "exact"):
             raise ValidationError("warmstart.jacobian", self.ls_jacobian, "'differences' or 'exact'")
 
@@ -166,7 +172,7 @@ def config_from_mapping(cfg: Mapping | None = None, *, where: str = "configurati
         kw["ls_max_nfev"] = ws["max_nfev"]
     if "jacobian" in ws:
         kw["ls_jacobian"] = ws["jacobian"]
-    for k in ("seed", "sample", "coordinates", "engine"):
+    for k in ("seed", "sample", "coordinates", "engine", "cross_check"):
         if k in smp:
             kw[k] = smp.pop(k)
     kw.update({k: out[k] for k in ("max_draws", "n_predictive") if k in out})

@@ -46,13 +46,14 @@ __all__ = ["RESUMABLE", "RunDirectory", "run_manifest", "open_run_directory", "m
 
 LOCK, MANIFEST, CHECKPOINTS = ".lock", "manifest.json", "checkpoints"
 
-#: Configuration entries a resume may change: they decide how long the runs go on or how the results are
-#: stored, not what is sampled.
+#: Configuration entries a resume may change: they decide how long the runs go on, how the results are stored or
+#: whether a finished sample is cross-checked, not what is sampled.
 RESUMABLE = frozenset(
     {
         "sampler.max_steps",
         "sampler.min_steps",
         "sampler.n_processes",
+        "cross_check",
         "nested.max_evaluations",
         "nested.report_every",
         "nested.n_processes",

@@ -19,8 +19,10 @@ from bayestissue.workflows.coordinates import COORDINATES
 
 #: The sampling engines (``[sampler] engine``).
 ENGINES = ("emcee", "nested")
+#: Independent checks of the emcee engine's verdict (``[sampler] cross_check``).
+CROSS_CHECKS = ("none", "nested")
 
-__all__ = ["ENGINES", "SCHEMA", "Key", "check_mapping", "config_markdown"]
+__all__ = ["CROSS_CHECKS", "ENGINES", "SCHEMA", "Key", "check_mapping", "config_markdown"]
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -61,6 +63,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "engine": Key("choice", '"emcee"', "emcee ensembles from the least-squares optima, or nested sampling from "
                       "the prior (nautilus; multimodal and curved posteriors, and the evidence; options in [nested])",
                       choices=ENGINES),
+        "cross_check": Key("choice", '"none"', "after emcee, a nested run of the same posterior ([nested] settings) "
+                           "compared quantile by quantile; a disagreement makes the verdict NOT CONVERGED",
+                           choices=CROSS_CHECKS),
         "coordinates": Key("choice", '"box"', "the sampler's coordinates: box, creep (creep tests, families 2/3 "
                            "tied) or ramp (force ramps)", choices=tuple(COORDINATES)),
         "moves": Key("choice", '"de_snooker"', "emcee moves; mixture = fitted Student-t independence proposals + DE",

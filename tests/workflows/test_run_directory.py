@@ -35,6 +35,8 @@ def test_manifest_differences_name_what_changed_and_allow_a_longer_run():
     assert manifest_differences(old, _manifest()) == []
     assert manifest_differences(old, _manifest(sampler={"max_steps": 5000, "moves": "de_snooker"})) == []
     assert manifest_differences(old, _manifest(seed=2)) == ["seed 1 -> 2"]
+    # a finished emcee sample may be cross-checked on resume (it does not change what the ensembles sample)
+    assert manifest_differences(_manifest(cross_check="none"), _manifest(cross_check="nested")) == []
     assert manifest_differences(old, _manifest(sampler={"max_steps": 100, "moves": "mixture"})) == [
         "sampler.moves 'de_snooker' -> 'mixture'"
     ]

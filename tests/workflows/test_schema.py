@@ -19,7 +19,7 @@ def test_docs_config_md_is_the_rendered_schema():
 
 
 def test_every_sampler_option_is_in_the_schema_and_nothing_else():
-    extra = {"seed", "sample", "coordinates", "engine"}  # calibration settings kept in the [sampler] section
+    extra = {"seed", "sample", "coordinates", "engine", "cross_check"}  # calibration settings kept in [sampler]
     assert set(SCHEMA["sampler"]) - extra == set(SamplerOptions.__dataclass_fields__)
     assert set(SCHEMA["nested"]) == set(NestedOptions.__dataclass_fields__)
 
@@ -44,6 +44,7 @@ def test_documented_defaults_are_the_code_defaults():
         ("sampler", "seed"): config.seed,
         ("sampler", "sample"): config.sample,
         ("sampler", "coordinates"): config.coordinates,
+        ("sampler", "cross_check"): config.cross_check,
         ("warmstart", "n_starts"): config.n_starts,
         ("warmstart", "max_nfev"): config.ls_max_nfev,
         ("warmstart", "jacobian"): config.ls_jacobian,

@@ -1,0 +1,68 @@
+"""``[sampler] cross_check = "nested"``: after the emcee engine a nested run of the same posterior is compared with
+it, the comparison is in the verdict, the summary and ``cross_check.md``, and a killed check resumes from its own
+checkpoints (bayestissue.workflows.calibration)."""
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayestissue.mechanics import ForwardModel, load_experiment
+from bayestissue.workflows import load_config, run_calibration
+
+T1 = Path(__file__).resolve().parents[2] / "data" / "T1.toml"
+TRUTH = [2.18, 2.91, 125, 0.75, 1.25, 13.4, 0.891, 0.02, 13.4, 0.891, 0.02]
+SD = 0.01
+
+
+def _short_creep():
+    e = load_experiment(T1)
+    keep = e.time_s <= 120.0
+    e = replace(e, time_s=e.time_s[keep], displacement_mm=None, force_mN=None)
+    y = ForwardModel(e)(np.asarray(TRUTH, float)[None])[0]
+    return replace(e, displacement_mm=y + SD * np.random.default_rng(5).standard_normal(y.size), meta={})
+
+
+def _config(**over):
+    return load_config(
+        None,
+        sampled=["mu", "ginf2"],
+        bounds={"mu": [0.5, 5.0], "ginf2": [5.0, 50.0]},
+        tied={"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"},
+        initial=dict(zip(("mu", "kappa", "ginf1", "gamma1", "beta1", "ginf2", "gamma2", "beta2"), TRUTH, strict=False)),
+        noise_options={"sd": SD},
+        n_starts=2,
+        cross_check="nested",
+        sampler={"n_ensembles": 2, "n_processes": 1, "max_steps": 1500, "prune_rounds": 1},
+        nested={"n_live": 200, "n_eff": 1000, "n_runs": 2, "n_networks": 1, "n_processes": 1},
+        n_predictive=10,
+        **over,
+    )
+
+
+@pytest.mark.slow
+def test_a_fit_is_cross_checked_by_a_nested_run(tmp_path):
+    lines = []
+    out = run_calibration([_short_creep()], _config(), out_dir=tmp_path, say=lines.append)
+    check = out.report.engine_check
+    assert check is not None and check.names == ("mu", "ginf2")
+    assert check.agree, check.text()  # one posterior, two engines: the quantiles agree within the limits
+    assert np.max(check.rel) < 0.1, check.markdown()
+    assert "cross-check: 2 nested run(s)" in lines[-2] and lines[-1] == check.text()
+    assert check.text() in out.report.verdict() and out.report.verdict() in out.table["meta"]["convergence"]
+    assert out.times_s["cross_check"] > 0
+    md = (tmp_path / "cross_check.md").read_text()
+    assert md.count("| mu |") == 1 and md.count("| ginf2 |") == 1
+    assert sorted(p.name for p in (tmp_path / "checkpoints" / "cross_check").iterdir()) == [
+        "nested_0.h5",
+        "nested_1.h5",
+    ]
+    # the check's runs resume from their checkpoints: same seed, same check
+    again = run_calibration([_short_creep()], _config(), out_dir=tmp_path, resume=True)
+    np.testing.assert_allclose(again.report.engine_check.q_b, check.q_b, rtol=1e-12)
+
+
+def test_cross_check_is_validated():
+    with pytest.raises(Exception, match="cross_check"):
+        load_config(None, cross_check="dynesty")
