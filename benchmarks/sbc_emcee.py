@@ -20,16 +20,17 @@ Table 1's value of the same test; the noise sd is known (:data:`NOISE_SD`, about
 replication's ``L`` posterior draws are spread evenly over all ensembles, walkers and kept steps.
 
 Printed per problem and parameter: the rank counts per decile, a chi-square test (9 dof) and a KS test with their
-p-values, the share of 90 % central intervals that hold the generating value (binomial 99 % range printed), and how
-many replications the verdict called CONVERGED. No pass/fail: read the p-values (5 parameters x 2 tests x 2 problems:
-one p below 0.01 by chance has probability about 18 %).
+p-values, how many central 90 % intervals of the ``L`` draws hold the generating value (binomial 99 % range printed),
+and how many replications the verdict called CONVERGED. No pass/fail: read the p-values (5 parameters x 2 tests x 2
+problems: one p below 0.01 by chance has probability about 18 %).
 
     python benchmarks/sbc_emcee.py [--problems creep ramp] [--reps 100] [--draws 99]
         [--max-steps N] [--ensembles N] [--processes 2] [--out docs/emcee_sbc.png]
     python benchmarks/sbc_emcee.py --from-log LOG... --out docs/emcee_sbc.png   # tests and figure from printed runs
 
 Every replication prints one line with its ranks as it finishes, so a log holds the results of a run that was
-stopped; ``--from-log`` reads those lines back (the rank tests and the figure; the interval counts need the run).
+stopped; ``--from-log`` reads those lines back (the rank tests, the interval counts and the figure), a replication
+seen in several logs once. ``--start R`` continues with replications R, R + 1, ... (their own seeds).
 """
 
 from __future__ import annotations
@@ -123,11 +124,8 @@ def _replication(job):
     names = list(out.problem.names)
     cols = [names.index(n) for n in SAMPLED]
     tv = np.array([truth[n] for n in SAMPLED])
-    ranks = np.sum(keep[:, cols] < tv, axis=0)
-    lo, hi = np.quantile(draws[:, cols], [(1 - LEVEL) / 2, (1 + LEVEL) / 2], axis=0)
     row = {
-        "ranks": ranks,
-        "inside": (lo <= tv) & (tv <= hi),
+        "ranks": np.sum(keep[:, cols] < tv, axis=0),
         "converged": bool(out.report.converged),
         "steps": max(e.n_steps for e in out.sample.ensembles),
         "seconds": time.perf_counter() - t0,
@@ -135,17 +133,19 @@ def _replication(job):
     return problem, r, row
 
 
-def _summary(problem: str, rows: list[dict], skipped: int, args) -> tuple[np.ndarray, list[dict]]:
+def _summary(problem: str, rows: list[dict], args) -> tuple[np.ndarray, list[dict]]:
+    """Print and return the ranks and their tests; the 90 % interval of the ``L`` draws holds the generating value
+    when its rank is within ``[0.05 (L + 1), L - 0.05 (L + 1)]`` (90 of the 100 ranks when L = 99)."""
     ranks = np.array([row["ranks"] for row in rows])
-    inside = np.array([row["inside"] for row in rows])
     n = len(rows)
+    cut = round((1 - LEVEL) / 2 * (args.draws + 1))
+    inside = (ranks >= cut) & (ranks <= args.draws - cut)
     lo, hi = stats.binom.ppf([0.005, 0.995], n, LEVEL)
-    secs = np.array([row["seconds"] for row in rows])
+    secs = [row["seconds"] for row in rows if "seconds" in row]
+    timing = f"; seconds per fit median {np.median(secs):.0f} (range {min(secs):.0f}-{max(secs):.0f})" if secs else ""
     print(
         f"\n{problem} ({TESTS[problem][0]}, first {SECONDS[problem]:.0f} s, examples/{TESTS[problem][1]}): "
-        f"{n} replications ({skipped} skipped: forward solve failed at the generating values); "
-        f"{sum(row['converged'] for row in rows)} CONVERGED; seconds per fit median {np.median(secs):.0f} "
-        f"(range {secs.min():.0f}-{secs.max():.0f})"
+        f"{n} replications, {sum(row['converged'] for row in rows)} CONVERGED{timing}"
     )
     print(f"boxes: {BOXES[problem]}")
     tests = rank_tests(ranks, args.draws, SAMPLED)
@@ -163,15 +163,9 @@ def _from_logs(args) -> int:
         for line in Path(path).read_text().splitlines():
             m = pattern.match(line)
             if m:
-                found.setdefault(m[1], {})[int(m[2])] = (m[3] == "CONVERGED", [int(v) for v in m[4].split(",")])
-    results = {}
-    for problem, reps in found.items():
-        ranks = np.array([r for _, r in reps.values()])
-        n_conv = sum(c for c, _ in reps.values())
-        print(f"\n{problem}: {len(reps)} replications from the logs, {n_conv} CONVERGED")
-        tests = rank_tests(ranks, args.draws, SAMPLED)
-        print("\n".join(f"  {line}" for line in rank_lines(tests)))
-        results[problem] = (ranks, tests)
+                row = {"converged": m[3] == "CONVERGED", "ranks": [int(v) for v in m[4].split(",")]}
+                found.setdefault(m[1], {})[int(m[2])] = row
+    results = {p: _summary(p, list(reps.values()), args) for p, reps in found.items()}
     if args.out and results:
         _figure(results, args)
     return 0
@@ -190,6 +184,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--problems", nargs="+", choices=list(TESTS), default=list(TESTS))
     ap.add_argument("--reps", type=int, default=100)
+    ap.add_argument("--start", type=int, default=0, help="first replication's index (its seed): continue a run")
     ap.add_argument("--draws", type=int, default=99, help="posterior draws ranked against (L)")
     ap.add_argument("--max-steps", type=int, default=0, help="step cap per ensemble (0: the example's)")
     ap.add_argument("--ensembles", type=int, default=0, help="ensembles per fit (0: the example's)")
@@ -205,9 +200,9 @@ def main(argv=None) -> int:
         f"ensembles {args.ensembles or 'as the example'}, step cap {args.max_steps or 'as the example'}"
     )
     t0 = time.perf_counter()
-    jobs = [(p, r, args) for p in args.problems for r in range(args.reps)]
+    jobs = [(p, r, args) for p in args.problems for r in range(args.start, args.start + args.reps)]
     rows = {p: [] for p in args.problems}
-    skipped = dict.fromkeys(args.problems, 0)
+    skipped = dict.fromkeys(args.problems, 0)  # the forward solve failed at the generating values
     with ProcessPoolExecutor(args.processes, mp_context=mp.get_context("fork")) as ex:
         for problem, _r, row in ex.map(_replication, jobs):
             if row is None:
@@ -221,7 +216,8 @@ def main(argv=None) -> int:
                 flush=True,
             )
     print(f"{time.perf_counter() - t0:.0f} s wall")
-    results = {p: _summary(p, rows[p], skipped[p], args) for p in args.problems}
+    print(f"skipped (forward solve failed at the generating values): {skipped}")
+    results = {p: _summary(p, rows[p], args) for p in args.problems}
     if args.out:
         _figure(results, args)
     return 0

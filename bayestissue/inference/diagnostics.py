@@ -235,7 +235,6 @@ class ConvergenceReport(ParameterChecks):
             head += f". {n_stuck} stuck walker(s) flagged (acceptance well below the median)"
         return head
 
-
     def advice(self) -> list[str]:
         """What a user can do about a NOT CONVERGED verdict: one line per kind of failure (none when converged)."""
         if self.converged:
@@ -257,9 +256,10 @@ class ConvergenceReport(ParameterChecks):
             out.append("R-hat or ESS short although every ensemble is long enough: raise [sampler] max_steps")
         if self.engine_check is not None and not self.engine_check.agree:
             out.append(
-                'the nested runs found mass the ensembles did not visit: use engine = "nested" for this posterior '
-                "(its verdict and evidence), or more ensembles from more starts ([sampler] n_ensembles, [warmstart] "
-                "n_starts) and longer runs; cross_check.md lists every quantile of both"
+                "the two engines disagree (cross_check.md lists every quantile of both): where the nested ranges are "
+                'the wider, run engine = "nested" for this posterior, or more ensembles from more starts ([sampler] '
+                "n_ensembles, [warmstart] n_starts); where they are the narrower, more live points ([nested] n_live) "
+                "for the check"
             )
         return out
 

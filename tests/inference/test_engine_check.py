@@ -50,6 +50,9 @@ def test_a_sample_that_missed_an_arm_is_caught_and_named():
     assert check.differs[0, 2] and not check.differs[1].any(), check.text()
     text = check.text()
     assert "disagrees" in text and "x0 95 %" in text and "x1" not in text
+    assert "the nested 90 % ranges are the wider (the ensembles' likelier to have missed a region)" in text
+    # the other way round: the nested sample is the one that cut the arm
+    assert "the nested 90 % ranges are the narrower" in _check(b, a).text()
 
 
 def test_the_two_guards():
