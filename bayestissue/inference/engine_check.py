@@ -39,6 +39,8 @@ __all__ = ["LEVELS", "EngineCheck", "compare_samples"]
 
 #: Quantile levels compared.
 LEVELS = (0.05, 0.5, 0.95)
+#: Differing quantities named in the one-line text, largest first (cross_check.md has them all).
+SHOWN = 4
 
 
 @dataclass(frozen=True)
@@ -74,18 +76,23 @@ class EngineCheck:
         """One sentence: agreement with the largest difference, or the quantities that differ."""
         worst = int(np.nanargmax(self.rel)) if np.any(np.isfinite(self.rel)) else 0
         j, k = divmod(worst, len(LEVELS))
-        own = f"; its own verdict: {self.other_verdict}" if self.other_verdict else ""
+        verdict = self.other_verdict.split(":")[0]
+        own = f"; the {self.engine} runs' own verdict: {verdict} (cross_check.md)" if self.other_verdict else ""
         if self.agree:
             return (
                 f"cross-checked by a {self.engine} run ({self.time_s:.0f} s): every 5/50/95 % quantile agrees "
                 f"(largest difference {self.rel[j, k]:.3f} of the 90 % width, {self.names[j]} "
                 f"{_level(k)}; limit {self.tol:g} and {self.z_min:g} Monte Carlo errors){own}"
             )
+        flat = np.flatnonzero(self.differs)
+        flat = flat[np.argsort(-self.rel.ravel()[flat], kind="stable")]
         parts = [
             f"{self.names[j]} {_level(k)} {self.q_a[j, k]:.4g} vs {self.q_b[j, k]:.4g} "
             f"({self.rel[j, k]:.2f} of the 90 % width, {self.z[j, k]:.1f} errors)"
-            for j, k in zip(*np.nonzero(self.differs), strict=True)
+            for j, k in (divmod(int(i), len(LEVELS)) for i in flat[:SHOWN])
         ]
+        if flat.size > SHOWN:
+            parts.append(f"{flat.size - SHOWN} more (cross_check.md)")
         return (
             f"a {self.engine} run of the same posterior disagrees ({self.time_s:.0f} s): " + "; ".join(parts) + " "
             f"(limit {self.tol:g} of the width and {self.z_min:g} Monte Carlo errors): one of the two missed part of "
@@ -116,6 +123,8 @@ class EngineCheck:
             f"| parameter | emcee | {self.engine} | largest difference / width | errors | |",
             "|---|---|---|---|---|---|",
         ]
+        if self.other_verdict:
+            head.insert(2, f"The {self.engine} runs' own verdict: {self.other_verdict}\n")
         rows = []
         for j, name in enumerate(self.names):
             k = int(np.argmax(self.rel[j]))

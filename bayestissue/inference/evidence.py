@@ -67,8 +67,12 @@ def weighted_quantile(x, w, q) -> np.ndarray:
     """Quantiles ``q`` of the weighted sample (``x`` ``(n,)``, ``w`` ``(n,)`` summing to one): the inverse of
     the mid-weight empirical CDF, interpolated."""
     o = np.argsort(x)
-    c = np.cumsum(w[o]) - 0.5 * w[o]
-    return np.interp(q, c, x[o])
+    return _sorted_quantile(x[o], w[o], q)
+
+
+def _sorted_quantile(xs, ws, q) -> np.ndarray:
+    """:func:`weighted_quantile` of values already sorted, weights in any scale."""
+    return np.interp(q, (np.cumsum(ws) - 0.5 * ws) / np.sum(ws), xs)
 
 
 def _n_eff(f, w) -> float:
@@ -109,10 +113,7 @@ def quantile_errors(x, w, levels=LEVELS, *, n_boot: int = N_BOOT, seed: int = 0)
         est[j] = weighted_quantile(xs, ws, levels)
         boot = np.empty((n_boot, len(levels)))
         for b, c in enumerate(counts):
-            wb = ws * c[o]
-            total = wb.sum()
-            cdf = (np.cumsum(wb) - 0.5 * wb) / total
-            boot[b] = np.interp(levels, cdf, xs)
+            boot[b] = _sorted_quantile(xs, ws * c[o], levels)
         err[j] = boot.std(axis=0, ddof=1)
     return est, err
 

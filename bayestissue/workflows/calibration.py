@@ -215,7 +215,7 @@ def _cross_check(problem, sample, report, config, ckpt, resume, say):
     a, b = sample.flat(), nested.flat()
     check = compare_samples(
         problem.names, a, report.quantile_errors(a), b, nested_report.quantile_errors(b), problem.parameters.to_unit,
-        other_verdict=nested_report.verdict().split(":")[0], time_s=time.perf_counter() - t0,
+        other_verdict=nested_report.verdict(), time_s=time.perf_counter() - t0,
     )  # fmt: skip
     say(check.text())
     return replace(report, engine_check=check)

@@ -111,3 +111,13 @@ def test_markdown_has_a_row_per_parameter():
     md = _check(a, b).markdown()
     rows = [line for line in md.splitlines() if line.startswith("| x")]
     assert len(rows) == 2 and rows[0].endswith("DIFFERS |") and not rows[1].endswith("DIFFERS |")
+
+
+def test_the_line_names_the_largest_differences_and_counts_the_rest():
+    a = _normal(4000, 1)
+    b = a + np.array([2.0, 1.0])  # every quantile of both parameters moved; x0 the more
+    check = _check(a, b)
+    assert int(check.differs.sum()) == 6
+    text = check.text()
+    assert text.count(" vs ") == 4 and "2 more (cross_check.md)" in text
+    assert text.index("x0") < text.index("x1")  # largest first
