@@ -176,7 +176,7 @@ def _figure(results, args) -> None:
         "simulation-based calibration of the recommended emcee path (mirror model, creep / ramp coordinates, "
         f"mixture moves), L = {args.draws}"
     )
-    panels = [(ranks, tests, f" ({p}, {len(ranks)} reps)") for p, (ranks, tests) in results.items()]
+    panels = [(ranks, tests, f"{p}, {len(ranks)} fits") for p, (ranks, tests) in results.items()]
     rank_figure(panels, args.draws, SAMPLED, title, args.out)
 
 

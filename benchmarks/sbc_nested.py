@@ -112,7 +112,7 @@ def main(argv=None) -> int:
         print(line)
     if args.out:
         title = f"simulation-based calibration of the nested engine, {n} replications (short T1 creep)"
-        rank_figure([(ranks, tests, f" among {args.draws} draws")], args.draws, list(SAMPLED), title, args.out)
+        rank_figure([(ranks, tests, f"{n} runs")], args.draws, list(SAMPLED), title, args.out)
     return 0
 
 

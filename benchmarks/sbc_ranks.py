@@ -44,7 +44,7 @@ def rank_lines(rows) -> list[str]:
 
 
 def rank_figure(panels, n_draws: int, names, title: str, out) -> None:
-    """Rank histograms, one row per panel ``(ranks, rows from rank_tests or None, label)`` and one column per
+    """Rank histograms, one row per panel ``(ranks, rows from rank_tests or None, row label)`` and one column per
     parameter, with the 99 % band of a uniform rank's bin count and each parameter's two p-values; saved to ``out``."""
     import matplotlib
 
@@ -59,10 +59,10 @@ def rank_figure(panels, n_draws: int, names, title: str, out) -> None:
         for j, (ax, name) in enumerate(zip(row_axes, names, strict=True)):
             ax.hist(ranks[:, j], bins=edges, color="tab:blue", edgecolor="w")
             ax.axhspan(lo, hi, color="0.85", zorder=-1, label="99 % band of uniform ranks")
-            ax.set_xlabel(f"rank of the generating {name}{label}")
+            ax.set_xlabel(f"rank of the generating {name}")
             if rows is not None:
                 ax.set_title(f"chi2 p = {rows[j]['p_chi2']:.2f}, KS p = {rows[j]['p_ks']:.2f}", fontsize=9)
-        row_axes[0].set_ylabel("replications")
+        row_axes[0].set_ylabel(f"{label}: replications" if label else "replications")
     axes[0, 0].legend(fontsize=7, loc="lower left")
     fig.suptitle(title)
     fig.tight_layout()

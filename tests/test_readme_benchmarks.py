@@ -24,6 +24,8 @@ SMOKE = {
                                "300"], "largest quantile difference"),
     "rosenbrock_evidence.py": (["--n-live", "100", "--n-eff", "200", "--runs", "2", "--blocks", "1", "--depth", "2",
                                 "--exact-draws", "20000"], "within 2 of their MC errors"),
+    "sbc_emcee.py": (["--problems", "creep", "--reps", "1", "--max-steps", "200", "--ensembles", "2",
+                      "--processes", "1"], "90 % intervals holding the truth"),
     "compare_engines.py": ([str(ROOT / "figures" / "calibration_summary_T1_mirror.csv"),
                             str(ROOT / "figures" / "calibration_summary_T1_mirror.csv")], "marginals AGREE"),
 }  # fmt: skip
