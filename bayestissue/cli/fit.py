@@ -245,7 +245,7 @@ def _report(outcome, config, names, out, no_figures) -> None:
     if outcome.report is not None:
         rep = outcome.report
         print(rep.verdict())
-        for line in getattr(rep, "advice", list)():
+        for line in rep.advice():
             print(f"what to do: {line}")
         print("posterior predictive check:", outcome.table["meta"]["fit_check"])
         if config.engine == "nested":

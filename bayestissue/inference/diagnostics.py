@@ -154,6 +154,11 @@ class ParameterChecks:
         (:func:`quantile_mcse`); the nested engine's report has its runs' own (its override)."""
         return quantile_mcse(draws, self.ess_bulk, self.ess_tail)
 
+    def advice(self) -> list[str]:
+        """What a user can do about a NOT CONVERGED verdict, one line each (none here; the ensembles' report has
+        its own)."""
+        return []
+
 
 @dataclass(frozen=True)
 class ConvergenceReport(ParameterChecks):

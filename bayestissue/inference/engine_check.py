@@ -35,10 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LEVELS", "EngineCheck", "compare_samples"]
+from bayestissue.inference.evidence import LEVELS  # the levels every Monte Carlo error in the package is for
 
-#: Quantile levels compared.
-LEVELS = (0.05, 0.5, 0.95)
+__all__ = ["EngineCheck", "compare_samples"]
+
 #: Differing quantities named in the one-line text, largest first (cross_check.md has them all).
 SHOWN = 4
 
