@@ -19,6 +19,7 @@ Each coordinate's quantiles of the curved, heavy-tailed ridge (x_{j,3} ~ x_1^8) 
 cannot. The runs go through ``sample_nested`` and ``assess_nested`` exactly as a calibration's do.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/rosenbrock_evidence.py [--n-live 1000] [--runs 4] [--figure PNG]
+        [--sampler ultranest [--slice-steps S]]
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from bayestissue.inference import (  # noqa: E402
     sample_nested,
 )
 from bayestissue.inference.evidence import LEVELS, weighted_quantile  # noqa: E402
+from bayestissue.inference.sampling.nested import SAMPLERS  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -164,6 +166,8 @@ def main(argv=None) -> int:
     ap.add_argument("--exact-draws", type=int, default=2_000_000)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--figure", help="write the figure here (PNG)")
+    ap.add_argument("--sampler", choices=SAMPLERS, default="nautilus", help="the nested engine's sampler")
+    ap.add_argument("--slice-steps", type=int, help="UltraNest's slice steps per new point (default 2 per dimension)")
     args = ap.parse_args(argv)
     target = Rosenbrock(blocks=args.blocks, depth=args.depth)
     truth = target.truth(args.exact_draws)
@@ -172,16 +176,19 @@ def main(argv=None) -> int:
     print(f"exact: log Z = {truth['log_z']:.4f} +- {truth['log_z_err']:.4f} (P(box) = {truth['p_box']:.5f} from "
           f"{args.exact_draws} exact draws)")  # fmt: skip
     problem = rosenbrock_problem(target)
-    opts = NestedOptions(n_live=args.n_live, n_eff=args.n_eff, n_runs=args.runs, n_networks=args.networks)
+    opts = NestedOptions(n_live=args.n_live, n_eff=args.n_eff, n_runs=args.runs, n_networks=args.networks,
+                         sampler=args.sampler, slice_steps=args.slice_steps)  # fmt: skip
+    print(f"{args.sampler}: {args.runs} runs of {args.n_live} live points")
     t0 = time.perf_counter()
     sample = sample_nested(problem, options=opts, rng=args.seed)
     wall = time.perf_counter() - t0
     report = assess_nested(sample)
-    print("| run | log Z | own error | (log Z - exact) / error | likelihood calls | s |")
-    print("|---|---|---|---|---|---|")
+    print("| run | log Z | own error | (log Z - exact) / error | likelihood calls | s | insertion test |")
+    print("|---|---|---|---|---|---|---|")
     for k, r in enumerate(sample.runs):
+        order = "-" if r.insertion_ok is None else f"{'pass' if r.insertion_ok else 'FAIL'} ({r.insertion_run:.0f})"
         print(f"| {k} | {r.log_z:.4f} | {r.log_z_err:.4f} | {(r.log_z - truth['log_z']) / r.log_z_err:+.2f} | "
-              f"{r.n_like} | {r.time_s:.0f} |")  # fmt: skip
+              f"{r.n_like} | {r.time_s:.0f} | {order} |")  # fmt: skip
     dz = (sample.log_z - truth["log_z"]) / sample.log_z_err
     print(f"pooled: log Z = {sample.log_z:.4f} +- {sample.log_z_err:.4f}, exact {truth['log_z']:.4f}: "
           f"{dz:+.2f} errors; {wall:.0f} s wall for {args.runs} runs")  # fmt: skip

@@ -223,7 +223,7 @@ def _nested_chains(sample: NestedSample, max_draws: int):
         coords={"parameter": list(sample.names)},
     )
     info = {
-        "engine": "nested (nautilus)",
+        "engine": f"nested ({sample.sampler})",
         "n_runs": n_runs,
         "chains_are": "nested runs (equal-weight draws resampled from each run's importance weights)",
         "log_evidence": sample.log_z,
@@ -234,4 +234,7 @@ def _nested_chains(sample: NestedSample, max_draws: int):
         "run_seeds": ",".join(str(s) for s in (sample.seeds or [])),
         "importance": importance,
     }
+    if all(r.insertion_ok is not None for r in sample.runs):  # UltraNest: the insertion-order test of each run
+        info["insertion_test_passed_runs"] = np.array([int(r.insertion_ok) for r in sample.runs])
+        info["insertion_test_quiet_iterations_runs"] = np.array([r.insertion_run for r in sample.runs])
     return draws, {}, info

@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from bayestissue._schema import Key, check_table, reference_rows
 from bayestissue._validation import ValidationError, check_known_keys
 from bayestissue.inference.likelihood import NOISE_MODELS
+from bayestissue.inference.sampling.nested import SAMPLERS
 from bayestissue.inference.sampling.options import MOVES, PROPOSALS
 from bayestissue.workflows.coordinates import COORDINATES
 
@@ -104,6 +105,12 @@ SCHEMA: dict[str, dict[str, Key]] = {
                                  "runs sample the material parameters, the sds are drawn afterwards)"),
         "discard_exploration": Key("bool", "true", "leave the exploration phase's points out of the posterior and "
                                    "the evidence (unbiased)"),
+        "sampler": Key("choice", '"nautilus"', "nautilus (importance nested sampling, neural-network bounds) or "
+                       "ultranest (classic nested sampling, population slice sampler over batches, insertion-order "
+                       "test in the verdict; f_live is its frac_remain, n_eff its min_ess)", choices=SAMPLERS),
+        "slice_steps": Key("int", "2 x sampled dimensions", "UltraNest: slice steps of each new point (too few bias "
+                           "the run; the insertion-order test may see it)", low=1),
+        "population": Key("int", "100", "UltraNest: chains advanced together (points per likelihood batch)", low=1),
     },
     "output": {
         "max_draws": Key("int", "4000", "posterior draws stored in posterior.nc", low=1),

@@ -2,7 +2,9 @@
 
 The emcee engine stores ensemble ``k`` in ``ensemble_<k>.h5`` (group ``ensemble_<k>``, emcee's ``HDFBackend``,
 whose ``iteration`` attribute counts the stored steps); the nested engine stores run ``k`` in ``nested_<k>.h5``
-(nautilus' own file, group ``sampler`` with the attribute ``n_like``, the likelihood evaluations so far).
+(nautilus' own file, group ``sampler`` with the attribute ``n_like``, the likelihood evaluations so far), or,
+with UltraNest, in the directory ``nested_<k>/`` (its log directory: ``results/points.hdf5`` with the attribute
+``ncalls``).
 """
 
 from __future__ import annotations
@@ -40,13 +42,16 @@ def stored_progress(directory: str | Path, engine: str, n_runs: int) -> tuple[li
     done = []
     for k in range(n_runs):
         path = checkpoint_path(directory, engine, k)
+        where, count = group.format(k=k), attr
+        if engine == "nested" and not path.exists():  # an UltraNest run's log directory
+            path, where, count = path.with_suffix("") / "results" / "points.hdf5", "/", "ncalls"
         if not path.exists():
             done.append(0)
             continue
         try:
             with h5py.File(path, "r") as f:
-                g = f.get(group.format(k=k))
-                done.append(0 if g is None else int(g.attrs.get(attr, 0)))
+                g = f.get(where)
+                done.append(0 if g is None else int(g.attrs.get(count, 0)))
         except (OSError, KeyError, ValueError) as exc:
             raise ValidationError(
                 f"checkpoint {path}",

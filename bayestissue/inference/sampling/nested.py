@@ -28,6 +28,10 @@ the runs sample the material parameters under the marginal likelihood (same evid
 drawn from its conditional posterior afterwards. Measured on the T1 mirror model: with the sd sampled, one of two
 runs' bounds cut the sd's posterior at 0.0200 mm (its lower side, where the likelihood is higher), R-hat 1.64.
 
+``NestedOptions.sampler = "ultranest"`` runs UltraNest instead (classic nested sampling, a population slice
+sampler over batches of the forward model, and the insertion-order test of each run:
+:mod:`~bayestissue.inference.sampling.ultranest_run`); the runs, their merging and the verdict are the same.
+
 Runs go to forked processes (:mod:`~bayestissue.inference.sampling.processes`), each checkpointed in its own
 nautilus HDF5 file and resumable; diagnostics in :mod:`bayestissue.inference.evidence`.
 """
@@ -49,7 +53,19 @@ from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.sampling.checkpoints import checkpoint_path
 from bayestissue.inference.sampling.processes import run_in_processes
 
-__all__ = ["NestedOptions", "NestedRun", "NestedSample", "nested_target", "peak_log_likelihood", "sample_nested"]
+__all__ = [
+    "SAMPLERS",
+    "NestedOptions",
+    "NestedRun",
+    "NestedSample",
+    "nested_target",
+    "peak_log_likelihood",
+    "sample_nested",
+]
+
+
+#: the nested engine's samplers (:attr:`NestedOptions.sampler`)
+SAMPLERS = ("nautilus", "ultranest")
 
 
 def _count(name, v, low):
@@ -76,6 +92,13 @@ class NestedOptions:
     marginalise_noise : integrate every sampled Gaussian noise sd out analytically and sample the material
         parameters alone (:mod:`bayestissue.inference.marginal_noise`; exact, same evidence); each point's sd is then
         drawn from its conditional posterior. Ignored for other noise models.
+    sampler : ``"nautilus"`` (importance nested sampling, this module) or ``"ultranest"`` (classic nested sampling
+        with a population slice sampler over batches and the insertion-order test,
+        :mod:`~bayestissue.inference.sampling.ultranest_run`). ``n_networks`` and ``discard_exploration`` are
+        nautilus's; ``slice_steps`` and ``population`` UltraNest's; ``f_live`` is UltraNest's ``frac_remain`` and
+        ``n_eff`` its ``min_ess``.
+    slice_steps : slice steps of each new point (UltraNest; None: two per sampled dimension).
+    population : chains advanced together, i.e. points per likelihood batch (UltraNest).
     discard_exploration : drop the points of the exploration phase from the posterior and the evidence
         (unbiased; costs more evaluations, but no network training). On the linear-Gaussian stand-in (3
         parameters, 200 live points, 4 runs) the evidence was 0.034 below the closed form with them (about 3
@@ -92,12 +115,19 @@ class NestedOptions:
     report_every: int = 5000
     marginalise_noise: bool = True
     discard_exploration: bool = True
+    sampler: str = "nautilus"
+    slice_steps: int | None = None
+    population: int = 100
 
     def __post_init__(self):
-        for name, low in (("n_live", 10), ("n_eff", 1), ("n_runs", 1), ("n_networks", 1), ("report_every", 1)):
+        for name, low in (("n_live", 10), ("n_eff", 1), ("n_runs", 1), ("n_networks", 1), ("report_every", 1),
+                          ("population", 1)):  # fmt: skip
             _count(name, getattr(self, name), low)
-        if self.n_processes is not None:
-            _count("n_processes", self.n_processes, 1)
+        if self.sampler not in SAMPLERS:
+            raise ValidationError("sampler", self.sampler, " or ".join(f'"{s}"' for s in SAMPLERS))
+        for name in ("n_processes", "slice_steps"):
+            if getattr(self, name) is not None:
+                _count(name, getattr(self, name), 1)
         if self.max_evaluations is not None:
             _count("max_evaluations", self.max_evaluations, 1)
         if isinstance(self.f_live, bool) or not (isinstance(self.f_live, float | int) and 0.0 < self.f_live < 1.0):
@@ -109,7 +139,8 @@ class NestedOptions:
 
 @dataclass
 class NestedRun:
-    """One nautilus run: weighted points in natural units (not folded), the evidence and the cost."""
+    """One nested run: weighted points in natural units (not folded), the evidence and the cost; UltraNest runs
+    also carry their own log-evidence error and the insertion-order test (None for nautilus runs)."""
 
     points: np.ndarray  # (n, ndim)
     log_w: np.ndarray  # (n,) normalised: logsumexp(log_w) == 0
@@ -120,6 +151,11 @@ class NestedRun:
     seed: int
     time_s: float
     finished: bool
+    reported_log_z_err: float | None = None
+    insertion_ok: bool | None = None
+    insertion_run: float | None = None  # shortest stretch of iterations between insertion-test alarms
+    #: (n, B) replicate weights of the run's own bootstrap (UltraNest), for the quantiles' errors
+    bootstrap_weights: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def weights(self) -> np.ndarray:
@@ -134,7 +170,10 @@ class NestedRun:
     def log_z_err(self) -> float:
         """Standard error of :math:`\\log\\hat Z` from the weights alone: for an importance-sampling mean
         :math:`\\hat Z`, :math:`\\operatorname{Var}(\\hat Z)/Z^2 \\approx 1/n_\\text{eff} - 1/n` (delta method, Kish's
-        :math:`n_\\text{eff}`). It leaves out the shells' volume errors; the spread across runs checks it."""
+        :math:`n_\\text{eff}`). It leaves out the shells' volume errors; the spread across runs checks it. An
+        UltraNest run reports its own (the live points' shrinkage), which is used instead."""
+        if self.reported_log_z_err is not None:
+            return self.reported_log_z_err
         return float(np.sqrt(max(1.0 / self.n_eff - 1.0 / self.log_w.size, 0.0)))
 
 
@@ -149,6 +188,7 @@ class NestedSample:
     seeds: list[int] | None = None
     #: seed of the equal-weight resampling (same seed, same draws)
     draw_seed: int = 0
+    sampler: str = "nautilus"
 
     @property
     def n_failed(self) -> int:
@@ -234,7 +274,13 @@ def peak_log_likelihood(problem: CalibrationProblem, options: NestedOptions, the
 
 
 def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> NestedRun:
-    """Run ``k``: a nautilus sampler driven in chunks of ``report_every`` evaluations (progress after each)."""
+    """Run ``k``: a nautilus sampler driven in chunks of ``report_every`` evaluations (progress after each), or
+    an UltraNest run (:func:`~bayestissue.inference.sampling.ultranest_run.run_ultranest`)."""
+    if options.sampler == "ultranest":
+        from bayestissue.inference.sampling.ultranest_run import run_ultranest
+
+        target = nested_target(problem, options)
+        return NestedRun(**run_ultranest(problem, k, seed, options, path, resume, progress, target))
     from nautilus import Sampler
 
     n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
@@ -290,14 +336,17 @@ def sample_nested(
     progress: Callable | None = None,
     rng=None,
 ) -> NestedSample:
-    """Run ``options.n_runs`` independent nautilus runs, in parallel processes where cores allow.
+    """Run ``options.n_runs`` independent nested runs (nautilus or UltraNest: ``options.sampler``), in parallel
+    processes where cores allow.
 
     Parameters
     ----------
     problem : CalibrationProblem (its box prior and batched log-likelihood; no starting point needed).
     options : NestedOptions
-    checkpoint : directory for the runs' nautilus files (``nested_<k>.h5``); none without it.
-    resume : continue the runs stored in ``checkpoint`` (nautilus reads its own file); otherwise they are replaced.
+    checkpoint : directory for the runs' nautilus files (``nested_<k>.h5``) or UltraNest directories
+        (``nested_<k>/``); none without it.
+    resume : continue the runs stored in ``checkpoint`` (each sampler reads its own files); otherwise they are
+        replaced.
     progress : ``progress(run, n_evaluations, n_eff, explored, log_z)``, called in this process after every
         ``options.report_every`` evaluations of a run.
     rng : seed or Generator (the runs' seeds and the equal-weight resampling).
@@ -313,4 +362,4 @@ def sample_nested(
     t0 = time.perf_counter()
     args = [(k, seeds[k], options, paths[k], resume) for k in range(options.n_runs)]
     runs = run_in_processes(problem, _run, args, n_proc, progress)
-    return NestedSample(problem.names, runs, problem, time.perf_counter() - t0, seeds, draw_seed)
+    return NestedSample(problem.names, runs, problem, time.perf_counter() - t0, seeds, draw_seed, options.sampler)
