@@ -309,7 +309,7 @@ def assess_nested(
         q, e = quantile_errors(pts, r.weights, seed=k, replicates=r.bootstrap_weights)
         q_runs.append(q)
         q_errs.append(e)
-    tested = all(r.insertion_ok is not None for r in sample.runs)
+    insertion = sample.insertion_tests()
     return NestedReport(
         names=tuple(sample.names),
         rhat=rhat,
@@ -325,8 +325,8 @@ def assess_nested(
         q_runs=np.array(q_runs),
         q_errs=np.array(q_errs),
         reference_log_l=None if reference_log_l is None else float(reference_log_l),
-        insertion_ok=None if not tested else np.array([r.insertion_ok for r in sample.runs]),
-        insertion_run=None if not tested else np.array([r.insertion_run for r in sample.runs], dtype=float),
+        insertion_ok=None if insertion is None else insertion[0],
+        insertion_run=None if insertion is None else insertion[1],
         rhat_max=rhat_max,
         ess_min=ess_min,
     )

@@ -234,7 +234,8 @@ def _nested_chains(sample: NestedSample, max_draws: int):
         "run_seeds": ",".join(str(s) for s in (sample.seeds or [])),
         "importance": importance,
     }
-    if all(r.insertion_ok is not None for r in sample.runs):  # UltraNest: the insertion-order test of each run
-        info["insertion_test_passed_runs"] = np.array([int(r.insertion_ok) for r in sample.runs])
-        info["insertion_test_quiet_iterations_runs"] = np.array([r.insertion_run for r in sample.runs])
+    insertion = sample.insertion_tests()
+    if insertion is not None:  # UltraNest: the insertion-order test of each run
+        info["insertion_test_passed_runs"] = insertion[0].astype(int)
+        info["insertion_test_quiet_iterations_runs"] = insertion[1]
     return draws, {}, info

@@ -33,7 +33,7 @@ sampler over batches of the forward model, and the insertion-order test of each 
 :mod:`~bayestissue.inference.sampling.ultranest_run`); the runs, their merging and the verdict are the same.
 
 Runs go to forked processes (:mod:`~bayestissue.inference.sampling.processes`), each checkpointed in its own
-nautilus HDF5 file and resumable; diagnostics in :mod:`bayestissue.inference.evidence`.
+nautilus HDF5 file (or UltraNest directory) and resumable; diagnostics in :mod:`bayestissue.inference.evidence`.
 """
 
 from __future__ import annotations
@@ -211,6 +211,13 @@ class NestedSample:
         own = np.sqrt(np.sum([r.log_z_err**2 for r in self.runs])) / lz.size
         scatter = lz.std(ddof=1) / np.sqrt(lz.size) if lz.size > 1 else 0.0
         return float(max(own, scatter))
+
+    def insertion_tests(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Each run's insertion-order test ``(passed, shortest alarm-free stretch in iterations)``; None unless every
+        run has one (UltraNest runs)."""
+        if any(r.insertion_ok is None for r in self.runs):
+            return None
+        return np.array([r.insertion_ok for r in self.runs]), np.array([r.insertion_run for r in self.runs], float)
 
     def n_draws_per_run(self) -> int:
         """Equal-weight draws per run: the smallest run's :math:`n_\\text{eff}` (at least 100, at most 4000)."""
