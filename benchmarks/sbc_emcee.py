@@ -25,7 +25,7 @@ and how many replications the verdict called CONVERGED. No pass/fail: read the p
 problems: one p below 0.01 by chance has probability about 18 %).
 
     python benchmarks/sbc_emcee.py [--problems creep ramp] [--reps 100] [--draws 99]
-        [--max-steps N] [--ensembles N] [--processes 2] [--out docs/emcee_sbc.png]
+        [--max-steps N] [--ensembles N] [--coordinates box] [--processes 2] [--out docs/emcee_sbc.png]
     python benchmarks/sbc_emcee.py --from-log LOG... --out docs/emcee_sbc.png   # tests and figure from printed runs
 
 Every replication prints one line with its ranks as it finishes, so a log holds the results of a run that was
@@ -73,10 +73,21 @@ NOISE_SD = 0.01  # mm
 LEVEL = 0.90
 
 
+def _replication_rng(problem: str, r: int, seed: int):
+    return np.random.default_rng([seed, list(TESTS).index(problem), r])
+
+
+def prior_quantiles(problem: str, r: int, seed: int) -> np.ndarray:
+    """Where replication ``r``'s generating values lie in their priors (the uniform draws behind them, in the order
+    of :data:`SAMPLED`): recomputed from the seed, so logs need not carry them."""
+    rng = _replication_rng(problem, r, seed)
+    return np.array([rng.uniform() for _ in BOXES[problem]])
+
+
 def _draw_truth(problem: str, rng) -> dict:
     truth = dict(zip(NAMES, PAPER_PARAMETERS[TESTS[problem][0]], strict=True))
     for name, (lo, hi) in BOXES[problem].items():
-        u = rng.uniform()
+        u = rng.uniform()  # the order and count of these draws are prior_quantiles'
         uniform = name.startswith("gamma")
         truth[name] = lo + u * (hi - lo) if uniform else float(np.exp(np.log(lo) + u * np.log(hi / lo)))
     for follower, leader in MIRROR_TIES:
@@ -102,13 +113,15 @@ def _config(problem: str, truth: dict, seed: int, args):
         cfg["sampler"]["max_steps"] = args.max_steps
     if args.ensembles:
         cfg["sampler"]["n_ensembles"] = args.ensembles
+    if args.coordinates:
+        cfg["sampler"]["coordinates"] = args.coordinates
     cfg["output"] = {"n_predictive": 20}
     return config_from_mapping(cfg, where=f"examples/{TESTS[problem][1]}")
 
 
 def _replication(job):
     problem, r, args = job
-    rng = np.random.default_rng([args.seed, list(TESTS).index(problem), r])
+    rng = _replication_rng(problem, r, args.seed)
     exp = load_experiment(ROOT / "data" / f"{TESTS[problem][0]}.toml")
     keep = exp.time_s <= SECONDS[problem]
     exp = dataclasses.replace(exp, time_s=exp.time_s[keep], displacement_mm=None, force_mN=None)
@@ -125,6 +138,7 @@ def _replication(job):
     cols = [names.index(n) for n in SAMPLED]
     tv = np.array([truth[n] for n in SAMPLED])
     row = {
+        "r": r,
         "ranks": np.sum(keep[:, cols] < tv, axis=0),
         "converged": bool(out.report.converged),
         "steps": max(e.n_steps for e in out.sample.ensembles),
@@ -133,9 +147,9 @@ def _replication(job):
     return problem, r, row
 
 
-def _summary(problem: str, rows: list[dict], args) -> tuple[np.ndarray, list[dict]]:
-    """Print and return the ranks and their tests; the 90 % interval of the ``L`` draws holds the generating value
-    when its rank is within ``[0.05 (L + 1), L - 0.05 (L + 1)]`` (90 of the 100 ranks when L = 99)."""
+def _summary(problem: str, rows: list[dict], args) -> tuple[np.ndarray, list[dict], np.ndarray]:
+    """Print and return the ranks, their tests and the verdicts; the 90 % interval of the ``L`` draws holds the
+    generating value when its rank is within ``[0.05 (L + 1), L - 0.05 (L + 1)]`` (90 of the 100 ranks when L = 99)."""
     ranks = np.array([row["ranks"] for row in rows])
     n = len(rows)
     cut = round((1 - LEVEL) / 2 * (args.draws + 1))
@@ -152,7 +166,31 @@ def _summary(problem: str, rows: list[dict], args) -> tuple[np.ndarray, list[dic
     for line, j in zip(rank_lines(tests), range(len(SAMPLED)), strict=True):
         held = int(inside[:, j].sum())
         print(f"  {line}; 90 % intervals holding the truth {held}/{n} (99 % range {lo:.0f}-{hi:.0f})")
-    return ranks, tests
+    _where_missed(problem, rows, ranks, inside, args)
+    return ranks, tests, np.array([row["converged"] for row in rows])
+
+
+def _where_missed(problem: str, rows: list[dict], ranks: np.ndarray, inside: np.ndarray, args) -> None:
+    """Where the misses lie. Per verdict, the rank tests of that subset (conditioning on the verdict, which depends on
+    the data, is not itself a calibration test: it shows where the misses are). And per parameter, how many missed
+    intervals had the generating value in its prior's outer 10 %: a posterior no narrower than the prior (a parameter
+    the test does not inform) misses exactly those, 10 % of replications in expectation."""
+    conv = np.array([row["converged"] for row in rows])
+    for label, sel in (("CONVERGED", conv), ("NOT CONVERGED", ~conv)):
+        if sel.sum() < 2:
+            continue
+        print(f"  {label} only ({sel.sum()} fits; conditioned on the verdict, not an SBC by itself):")
+        for line, j in zip(rank_lines(rank_tests(ranks[sel], args.draws, SAMPLED)), range(len(SAMPLED)), strict=True):
+            print(f"    {line}; intervals holding the truth {int(inside[sel, j].sum())}/{sel.sum()}")
+    u = np.array([prior_quantiles(problem, row["r"], args.seed) for row in rows])
+    edge = (u < (1 - LEVEL) / 2) | (u > 1 - (1 - LEVEL) / 2)
+    for j, name in enumerate(SAMPLED):
+        miss = ~inside[:, j]
+        print(
+            f"  {name}: {int(miss.sum())} missed, {int((miss & edge[:, j]).sum())} of them with the truth in the "
+            f"prior's outer {1 - LEVEL:.0%} ({int(edge[:, j].sum())} truths there of {len(rows)}, "
+            f"{(1 - LEVEL) * len(rows):.1f} expected); {int((miss & ~conv).sum())} of them NOT CONVERGED"
+        )
 
 
 def _from_logs(args) -> int:
@@ -163,7 +201,7 @@ def _from_logs(args) -> int:
         for line in Path(path).read_text().splitlines():
             m = pattern.match(line)
             if m:
-                row = {"converged": m[3] == "CONVERGED", "ranks": [int(v) for v in m[4].split(",")]}
+                row = {"r": int(m[2]), "converged": m[3] == "CONVERGED", "ranks": [int(v) for v in m[4].split(",")]}
                 found.setdefault(m[1], {})[int(m[2])] = row
     results = {p: _summary(p, list(reps.values()), args) for p, reps in found.items()}
     if args.out and results:
@@ -176,7 +214,12 @@ def _figure(results, args) -> None:
         "simulation-based calibration of the recommended emcee path (mirror model, creep / ramp coordinates, "
         f"mixture moves), L = {args.draws}"
     )
-    panels = [(ranks, tests, f"{p}, {len(ranks)} fits") for p, (ranks, tests) in results.items()]
+    panels = [(ranks, tests, f"{p}, {len(ranks)} fits") for p, (ranks, tests, _) in results.items()]
+    panels += [
+        (ranks[conv], rank_tests(ranks[conv], args.draws, SAMPLED), f"{p}, {conv.sum()} CONVERGED only")
+        for p, (ranks, _, conv) in results.items()
+        if 30 <= conv.sum() < len(conv)  # a subset large enough for its histogram to say something
+    ]
     rank_figure(panels, args.draws, SAMPLED, title, args.out)
 
 
@@ -188,6 +231,9 @@ def main(argv=None) -> int:
     ap.add_argument("--draws", type=int, default=99, help="posterior draws ranked against (L)")
     ap.add_argument("--max-steps", type=int, default=0, help="step cap per ensemble (0: the example's)")
     ap.add_argument("--ensembles", type=int, default=0, help="ensembles per fit (0: the example's)")
+    ap.add_argument(
+        "--coordinates", choices=("box", "creep", "ramp"), help="sampler coordinates (default: the example's)"
+    )
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--processes", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", help="PNG of the rank histograms")
@@ -197,7 +243,8 @@ def main(argv=None) -> int:
         return _from_logs(args)
     print(
         f"noise sd {NOISE_SD} mm (known); L = {args.draws}; {args.reps} replications each; "
-        f"ensembles {args.ensembles or 'as the example'}, step cap {args.max_steps or 'as the example'}"
+        f"ensembles {args.ensembles or 'as the example'}, step cap {args.max_steps or 'as the example'}, "
+        f"coordinates {args.coordinates or 'as the example'}"
     )
     t0 = time.perf_counter()
     jobs = [(p, r, args) for p in args.problems for r in range(args.start, args.start + args.reps)]

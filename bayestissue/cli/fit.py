@@ -234,6 +234,7 @@ def _resume_line(run_dir, engine: str) -> str:
 
 def _report(outcome, config, names, out, no_figures) -> None:
     from bayestissue.inference.summary import table_markdown
+    from bayestissue.workflows.coordinates import coordinate_advice
 
     ms = outcome.multistart
     print(
@@ -245,7 +246,10 @@ def _report(outcome, config, names, out, no_figures) -> None:
     if outcome.report is not None:
         rep = outcome.report
         print(rep.verdict())
-        for line in rep.advice():
+        advice = list(rep.advice())
+        if config.engine == "emcee":
+            advice.append(coordinate_advice(config.coordinates, rep.converged))
+        for line in filter(None, advice):
             print(f"what to do: {line}")
         print("posterior predictive check:", outcome.table["meta"]["fit_check"])
         if config.engine == "nested":

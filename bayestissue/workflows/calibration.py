@@ -209,7 +209,14 @@ def _cross_check(problem, sample, report, config, ckpt, resume, say):
     say(f"cross-check: {opts.n_runs} nested run(s) of the same posterior, {opts.n_live} live points each")
     t0 = time.perf_counter()
     path = None if ckpt is None else Path(ckpt) / "cross_check"
-    nested = sample_nested(problem, options=opts, checkpoint=path, resume=resume, rng=[config.seed, 36])
+    nested = sample_nested(
+        problem,
+        options=opts,
+        checkpoint=path,
+        resume=resume,
+        progress=_every(30.0, say, opts.n_eff),
+        rng=[config.seed, 36],
+    )
     nested_report = assess_nested(nested)
     a, b = sample.flat(), nested.flat()
     check = compare_samples(
@@ -218,6 +225,23 @@ def _cross_check(problem, sample, report, config, ckpt, resume, say):
     )  # fmt: skip
     say(check.text())
     return replace(report, engine_check=check)
+
+
+def _every(seconds: float, say, n_eff: int):
+    """A nested progress callback that says where the runs are at most every ``seconds`` (the cross-check has no
+    bar of its own: the sampling bar above it has closed)."""
+    state, last = {}, [time.perf_counter()]
+
+    def progress(k, n_like, eff, explored, log_z):
+        state[k] = (n_like, eff, explored)
+        if time.perf_counter() - last[0] >= seconds:
+            last[0] = time.perf_counter()
+            runs = ", ".join(
+                f"run {j} " + (f"n_eff {e:.0f}/{n_eff}" if x else "exploring") for j, (_, e, x) in sorted(state.items())
+            )
+            say(f"cross-check: {sum(v[0] for v in state.values()):,} evaluations; {runs}")
+
+    return progress
 
 
 def _finish(outcome: CalibrationOutcome, experiments, out_dir, say) -> CalibrationOutcome:

@@ -17,7 +17,7 @@ from bayestissue.inference import SamplerOptions, initial_walkers, run_ensemble
 from bayestissue.inference.coordinates import make_coordinates
 from bayestissue.mechanics import PAPER_TISSUE
 from bayestissue.workflows import paper_parameter_set
-from bayestissue.workflows.coordinates import CreepCoordinates, coordinate_factory
+from bayestissue.workflows.coordinates import CreepCoordinates, coordinate_advice, coordinate_factory
 from bayestissue.workflows.problem import reference_stretch
 
 TIED = {"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"}
@@ -240,3 +240,13 @@ def test_ramp_shear_straightens_the_t2_valley_with_a_unit_jacobian():
     spread = np.ptp(z_box, axis=0)
     assert spread[0] > 0.05
     assert np.max(np.abs(z_sheared - z_ref)) < 1e-3
+
+
+def test_unconverged_runs_in_physics_coordinates_are_pointed_to_the_box():
+    """The emcee SBC's stuck ramp fits (docs/verification.md): a NOT CONVERGED run in creep or ramp coordinates is told
+    to try the box (and the nested check); a converged run, or one already in the box, is told nothing."""
+    for kind in ("creep", "ramp"):
+        line = coordinate_advice(kind, converged=False)
+        assert f"the {kind} coordinates" in line and 'coordinates = "box"' in line and "cross_check" in line
+        assert coordinate_advice(kind, converged=True) is None
+    assert coordinate_advice("box", converged=False) is None

@@ -10,6 +10,7 @@ import pytest
 
 from bayestissue.mechanics import ForwardModel, load_experiment
 from bayestissue.workflows import load_config, run_calibration
+from bayestissue.workflows.calibration import _every
 
 T1 = Path(__file__).resolve().parents[2] / "data" / "T1.toml"
 TRUTH = [2.18, 2.91, 125, 0.75, 1.25, 13.4, 0.891, 0.02, 13.4, 0.891, 0.02]
@@ -49,7 +50,9 @@ def test_a_fit_is_cross_checked_by_a_nested_run(tmp_path):
     assert check is not None and check.names == ("mu", "ginf2")
     assert check.agree, check.text()  # one posterior, two engines: the quantiles agree within the limits
     assert np.max(check.rel) < 0.1, check.markdown()
-    assert "cross-check: 2 nested run(s)" in lines[-2] and lines[-1] == check.text()
+    start = next(i for i, line in enumerate(lines) if "cross-check: 2 nested run(s)" in line)
+    assert lines[-1] == check.text()
+    assert all(line.startswith("cross-check: ") and " evaluations; run 0 " in line for line in lines[start + 1 : -1])
     assert check.text() in out.report.verdict() and out.report.verdict() in out.table["meta"]["convergence"]
     assert out.times_s["cross_check"] > 0
     md = (tmp_path / "cross_check.md").read_text()
@@ -61,6 +64,23 @@ def test_a_fit_is_cross_checked_by_a_nested_run(tmp_path):
     # the check's runs resume from their checkpoints: same seed, same check
     again = run_calibration([_short_creep()], _config(), out_dir=tmp_path, resume=True)
     np.testing.assert_allclose(again.report.engine_check.q_b, check.q_b, rtol=1e-12)
+
+
+def test_the_cross_check_says_where_its_runs_are():
+    """The check has no bar of its own: at most every ``seconds`` one line with the evaluations and each run's
+    phase."""
+    lines = []
+    progress = _every(0.0, lines.append, 1000)
+    progress(0, 4000, 0.0, False, float("nan"))
+    progress(1, 6500, 120.0, True, -3.2)
+    assert lines == [
+        "cross-check: 4,000 evaluations; run 0 exploring",
+        "cross-check: 10,500 evaluations; run 0 exploring, run 1 n_eff 120/1000",
+    ]
+    quiet = []
+    progress = _every(3600.0, quiet.append, 1000)
+    progress(0, 4000, 0.0, False, float("nan"))
+    assert quiet == []
 
 
 def test_cross_check_is_validated():
