@@ -211,7 +211,8 @@ def _from_logs(args) -> int:
 
 def _figure(results, args) -> None:
     title = (
-        "simulation-based calibration of the recommended emcee path (mirror model, creep / ramp coordinates, "
+        "simulation-based calibration of the recommended emcee path (mirror model, "
+        f"{args.coordinates or 'creep / ramp'} coordinates, "
         f"mixture moves), L = {args.draws}"
     )
     panels = [(ranks, tests, f"{p}, {len(ranks)} fits") for p, (ranks, tests, _) in results.items()]
