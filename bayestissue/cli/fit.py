@@ -191,19 +191,17 @@ def _progress(config, *, enabled: bool):
     from tqdm import tqdm
 
     if config.engine == "nested":
-        state = {}
+        from bayestissue.inference.sampling.nested import RunPhases
+
+        phases = RunPhases(config.nested.n_eff)
 
         def progress(k, n_like, n_eff, explored, log_z):
             nonlocal bar
             if bar is None:
                 bar = tqdm(unit="eval", desc="nested sampling")
-            state[k] = (n_like, n_eff, explored)
-            bar.update(sum(s[0] for s in state.values()) - bar.n)
-            phases = " ".join(
-                f"run {j}: " + (f"n_eff {s[1]:.0f}/{config.nested.n_eff}" if s[2] else "exploring")
-                for j, s in sorted(state.items())
-            )
-            bar.set_postfix_str(phases)
+            phases.update(k, n_like, n_eff, explored)
+            bar.update(phases.evaluations - bar.n)
+            bar.set_postfix_str(phases.text())
 
         return progress, close
     opts = config.sampler
@@ -234,7 +232,6 @@ def _resume_line(run_dir, engine: str) -> str:
 
 def _report(outcome, config, names, out, no_figures) -> None:
     from bayestissue.inference.summary import table_markdown
-    from bayestissue.workflows.coordinates import coordinate_advice
 
     ms = outcome.multistart
     print(
@@ -246,10 +243,7 @@ def _report(outcome, config, names, out, no_figures) -> None:
     if outcome.report is not None:
         rep = outcome.report
         print(rep.verdict())
-        advice = list(rep.advice())
-        if config.engine == "emcee":
-            advice.append(coordinate_advice(config.coordinates, rep.converged))
-        for line in filter(None, advice):
+        for line in outcome.advice():
             print(f"what to do: {line}")
         print("posterior predictive check:", outcome.table["meta"]["fit_check"])
         if config.engine == "nested":

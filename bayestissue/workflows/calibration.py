@@ -47,10 +47,11 @@ from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.engine_check import compare_samples
 from bayestissue.inference.fit_check import fit_check, fit_check_text
 from bayestissue.inference.posterior import evenly, to_inference_data
-from bayestissue.inference.sampling.nested import peak_log_likelihood
+from bayestissue.inference.sampling.nested import RunPhases, peak_log_likelihood
 from bayestissue.inference.summary import summary_table, table_markdown
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.constraints import ConstraintTest, constraint_test
+from bayestissue.workflows.coordinates import coordinate_advice
 from bayestissue.workflows.problem import build_problem, reference_values
 from bayestissue.workflows.tissue_terms import TissueTerms, tissue_terms
 
@@ -76,6 +77,16 @@ class CalibrationOutcome:
     files: dict = field(default_factory=dict)
     constraints: ConstraintTest | None = None
     tissue_terms: TissueTerms | None = None
+
+    def advice(self) -> list[str]:
+        """What to do when the run is not done: the verdict's own advice (:meth:`ConvergenceReport.advice`), and for
+        emcee the coordinates' (:func:`coordinate_advice`); empty when sampled and converged, or not sampled."""
+        if self.report is None:
+            return []
+        lines = list(self.report.advice())
+        if self.config.engine == "emcee":
+            lines.append(coordinate_advice(self.config.coordinates, self.report.converged))
+        return [line for line in lines if line]
 
 
 def run_calibration(
@@ -230,16 +241,13 @@ def _cross_check(problem, sample, report, config, ckpt, resume, say):
 def _every(seconds: float, say, n_eff: int):
     """A nested progress callback that says where the runs are at most every ``seconds`` (the cross-check has no
     bar of its own: the sampling bar above it has closed)."""
-    state, last = {}, [time.perf_counter()]
+    phases, last = RunPhases(n_eff), [time.perf_counter()]
 
     def progress(k, n_like, eff, explored, log_z):
-        state[k] = (n_like, eff, explored)
+        phases.update(k, n_like, eff, explored)
         if time.perf_counter() - last[0] >= seconds:
             last[0] = time.perf_counter()
-            runs = ", ".join(
-                f"run {j} " + (f"n_eff {e:.0f}/{n_eff}" if x else "exploring") for j, (_, e, x) in sorted(state.items())
-            )
-            say(f"cross-check: {sum(v[0] for v in state.values()):,} evaluations; {runs}")
+            say(f"cross-check: {phases.evaluations:,} evaluations; {phases.text()}")
 
     return progress
 
@@ -249,6 +257,8 @@ def _finish(outcome: CalibrationOutcome, experiments, out_dir, say) -> Calibrati
     files."""
     if outcome.constraints is not None:
         outcome.table["meta"]["constraint_test"] = outcome.constraints.text()
+    if outcome.advice():
+        outcome.table["meta"]["what_to_do"] = " ".join(outcome.advice())
     outcome.tissue_terms = _tissue_terms(outcome, experiments, say)
     _write(outcome, out_dir)
     return outcome

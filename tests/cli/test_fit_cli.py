@@ -39,6 +39,10 @@ def test_fit_two_parameters_writes_results(tmp_path, capsys):
     cols, meta = read_table(out / "summary.csv", required=("parameter", "ls_estimate", "median"))
     assert list(cols["parameter"]) == ["mu", "kappa", "sigma_T2"]
     assert "ginf1=125" in meta["parameters_fixed"]
+    # what to do about it: printed, and kept in the summary files beside the verdict
+    (advice,) = [line for line in text.splitlines() if line.startswith("what to do: run longer")]
+    assert meta["what_to_do"].startswith(advice.removeprefix("what to do: "))
+    assert f"- what_to_do: {meta['what_to_do']}" in (out / "summary.md").read_text()
     idata = read_inference_data(out / "posterior.nc")
     assert idata.posterior.attrs["seed"] == 5
     assert "data_sha256:T2.csv" in idata.posterior.attrs
@@ -60,7 +64,7 @@ def test_fit_nested_engine_writes_evidence_weights_and_figures(tmp_path, capsys)
     assert code == 0
     captured = capsys.readouterr()
     text = captured.out
-    assert "nested sampling" in captured.err and "run 1: n_eff" in captured.err  # the progress bar
+    assert "nested sampling" in captured.err and "run 1 n_eff" in captured.err  # the progress bar
     assert "then 2 nested runs" in text
     assert "NOT CONVERGED: 2 run(s), at least 4 needed" in text
     idata = read_inference_data(out / "posterior.nc")

@@ -58,6 +58,7 @@ __all__ = [
     "NestedOptions",
     "NestedRun",
     "NestedSample",
+    "RunPhases",
     "nested_target",
     "peak_log_likelihood",
     "sample_nested",
@@ -66,6 +67,27 @@ __all__ = [
 
 #: the nested engine's samplers (:attr:`NestedOptions.sampler`)
 SAMPLERS = ("nautilus", "ultranest")
+
+
+class RunPhases:
+    """Where the runs are, from the arguments of :func:`sample_nested`'s ``progress`` callback: the evaluations of
+    all runs and each run's phase, as the CLI's bar and the emcee cross-check both show them."""
+
+    def __init__(self, n_eff: int):
+        self.n_eff = n_eff
+        self._runs: dict[int, tuple[int, float, bool]] = {}
+
+    def update(self, k: int, n_like: int, n_eff: float, explored: bool) -> None:
+        self._runs[k] = (int(n_like), float(n_eff), bool(explored))
+
+    @property
+    def evaluations(self) -> int:
+        return sum(r[0] for r in self._runs.values())
+
+    def text(self) -> str:
+        """``run 0 exploring, run 1 n_eff 120/1000``"""
+        runs = sorted(self._runs.items())
+        return ", ".join(f"run {k} " + (f"n_eff {e:.0f}/{self.n_eff}" if x else "exploring") for k, (_, e, x) in runs)
 
 
 def _count(name, v, low):
