@@ -257,8 +257,9 @@ def _finish(outcome: CalibrationOutcome, experiments, out_dir, say) -> Calibrati
     files."""
     if outcome.constraints is not None:
         outcome.table["meta"]["constraint_test"] = outcome.constraints.text()
-    if outcome.advice():
-        outcome.table["meta"]["what_to_do"] = " ".join(outcome.advice())
+    advice = outcome.advice()
+    if advice:
+        outcome.table["meta"]["what_to_do"] = " ".join(advice)
     outcome.tissue_terms = _tissue_terms(outcome, experiments, say)
     _write(outcome, out_dir)
     return outcome
