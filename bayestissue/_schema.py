@@ -79,6 +79,7 @@ def expected(key: Key) -> str:
         "groups": "two lists of parameter names of equal length",
         "pair": "a pair [lower, upper] of numbers",
         "sd": f'a number{bound} or "data"',
+        "scheduler": '"local" or a dask scheduler address like "tcp://host:8786"',
     }[key.kind]
 
 
@@ -113,6 +114,10 @@ def valid(v, key: Key) -> bool:
         return isinstance(v, list) and len(v) == 2 and all(_is_names(g) for g in v) and len(v[0]) == len(v[1]) > 0
     if k == "pair":
         return _is_pair(v)
+    if k == "scheduler":
+        from bayestissue.parallel import LOCAL_CLUSTER, is_scheduler_address
+
+        return v == LOCAL_CLUSTER or is_scheduler_address(v)
     raise AssertionError(f"unknown schema kind {k!r}")  # a bug in a schema, not user input
 
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 
-__all__ = ["task_key", "ResultCache", "fan_out", "start_client"]
+__all__ = ["task_key", "ResultCache", "LOCAL_CLUSTER", "fan_out", "is_scheduler_address", "start_client"]
 
 _log = logging.getLogger(__name__)
 
@@ -156,6 +156,18 @@ def _call(func, args, kwargs):
     return func(*args, **kwargs)
 
 
+#: Where runs go when they go to "a cluster on this machine" (``[nested] scheduler = "local"``): a LocalCluster.
+LOCAL_CLUSTER = "local"
+
+
+def is_scheduler_address(value) -> bool:
+    """Whether ``value`` reads as a dask scheduler address: a protocol, ``://`` and a host (``"tcp://host:8786"``)."""
+    if not isinstance(value, str):
+        return False
+    protocol, sep, host = value.partition("://")
+    return bool(protocol and sep and host)
+
+
 def start_client(scheduler: str | None = None, *, n_workers: int | None = None):
     """Return a dask ``Client``: connected to ``scheduler`` (``"tcp://host:8786"``) or to a new
     LocalCluster.
@@ -168,7 +180,7 @@ def start_client(scheduler: str | None = None, *, n_workers: int | None = None):
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
-        if not isinstance(scheduler, str) or "://" not in scheduler:
+        if not is_scheduler_address(scheduler):
             raise ValidationError(
                 "scheduler",
                 scheduler,

@@ -28,6 +28,8 @@ SMOKE = {
                                                     "1", "--depth", "2", "--exact-draws", "20000"], "insertion test"),
     "sbc_emcee.py": (["--problems", "creep", "--reps", "1", "--max-steps", "200", "--ensembles", "2",
                       "--processes", "1"], "90 % intervals holding the truth"),
+    "cluster_scaling.py": (["--n-live", "50", "--runs", "2", "--workers", "1", "--max-evaluations", "500"],
+                           "projected"),
     "compare_engines.py": ([str(ROOT / "figures" / "calibration_summary_T1_mirror.csv"),
                             str(ROOT / "figures" / "calibration_summary_T1_mirror.csv")], "marginals AGREE"),
 }  # fmt: skip

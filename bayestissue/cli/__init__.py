@@ -83,7 +83,10 @@ def _check_outputs(args) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(message)s")
+    level = logging.INFO if args.verbose else logging.WARNING
+    logging.basicConfig(level=level, format="%(levelname)s %(message)s")
+    for handler in logging.getLogger().handlers:  # libraries that set their loggers' levels (dask's INFO start-up
+        handler.setLevel(level)  # chatter) print no more than the command asked for
     if args.global_quiet:  # every command's own switch
         args.no_progress = args.quiet = True
     try:

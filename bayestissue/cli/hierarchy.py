@@ -51,6 +51,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from bayestissue._validation import ValidationError
     from bayestissue.cli.fit import QUICK_NESTED, QUICK_SAMPLER, _progress
+    from bayestissue.parallel import is_scheduler_address
     from bayestissue.workflows import load_config
     from bayestissue.workflows.hierarchy import load_hierarchy, run_hierarchy
     from bayestissue.workflows.hierarchy_summary import write_hierarchy
@@ -58,7 +59,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     if args.workers is not None and args.workers < 1:
         raise ValidationError("--workers", args.workers, "an integer >= 1")
-    if args.scheduler is not None and "://" not in args.scheduler:
+    if args.scheduler is not None and not is_scheduler_address(args.scheduler):
         raise ValidationError("--scheduler", args.scheduler, "a scheduler address like tcp://host:8786")
     spec = load_hierarchy(args.specimens)
     over = {}

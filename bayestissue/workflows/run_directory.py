@@ -57,6 +57,7 @@ RESUMABLE = frozenset(
         "nested.max_evaluations",
         "nested.report_every",
         "nested.n_processes",
+        "nested.scheduler",
         "max_draws",
         "n_predictive",
     }

@@ -111,6 +111,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "slice_steps": Key("int", "2 x sampled dimensions", "UltraNest: slice steps of each new point (too few bias "
                            "the run; the insertion-order test may see it)", low=1),
         "population": Key("int", "100", "UltraNest: chains advanced together (points per likelihood batch)", low=1),
+        "scheduler": Key("scheduler", "none", 'where the runs go: none (processes of this machine), "local" (dask '
+                         'tasks on a LocalCluster of n_processes workers) or a dask scheduler address '
+                         '("tcp://host:8786"; docs/cluster.md)'),
     },
     "output": {
         "max_draws": Key("int", "4000", "posterior draws stored in posterior.nc", low=1),

@@ -51,6 +51,7 @@ from bayestissue._validation import ValidationError
 from bayestissue.inference.marginal_noise import MarginalNoise, can_marginalise
 from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.sampling.checkpoints import checkpoint_path
+from bayestissue.inference.sampling.cluster import check_scheduler, run_on_cluster
 from bayestissue.inference.sampling.processes import run_in_processes
 
 __all__ = [
@@ -104,7 +105,11 @@ class NestedOptions:
     n_live : nautilus live points (the points a new shell's bound must enclose); more resolve smaller modes.
     n_eff : importance effective sample size each run samples up to after the exploration.
     n_runs : independent runs (different seeds; >= 2 for the between-run R-hat and evidence spread).
-    n_processes : parallel processes (default ``min(n_runs, cores)``).
+    n_processes : parallel processes (default ``min(n_runs, cores)``); with ``scheduler = "local"`` the
+        LocalCluster's workers.
+    scheduler : where the runs go: None (forked processes of this machine), ``"local"`` (dask tasks on a
+        LocalCluster started for the call) or a dask scheduler's address (``"tcp://host:8786"``: a cluster's
+        workers, docs/cluster.md); :mod:`~bayestissue.inference.sampling.cluster`. The runs are the same either way.
     n_networks : neural networks per bound (nautilus default 4; their training dominates the cost of a cheap
         likelihood).
     f_live : the exploration ends when the live set holds less than this share of the evidence.
@@ -140,8 +145,10 @@ class NestedOptions:
     sampler: str = "nautilus"
     slice_steps: int | None = None
     population: int = 100
+    scheduler: str | None = None
 
     def __post_init__(self):
+        check_scheduler(self.scheduler)
         for name, low in (("n_live", 10), ("n_eff", 1), ("n_runs", 1), ("n_networks", 1), ("report_every", 1),
                           ("population", 1)):  # fmt: skip
             _count(name, getattr(self, name), low)
@@ -366,7 +373,7 @@ def sample_nested(
     rng=None,
 ) -> NestedSample:
     """Run ``options.n_runs`` independent nested runs (nautilus or UltraNest: ``options.sampler``), in parallel
-    processes where cores allow.
+    processes where cores allow, or as dask tasks (``options.scheduler``).
 
     Parameters
     ----------
@@ -390,5 +397,8 @@ def sample_nested(
     n_proc = min(options.n_processes or os.cpu_count() or 1, options.n_runs)
     t0 = time.perf_counter()
     args = [(k, seeds[k], options, paths[k], resume) for k in range(options.n_runs)]
-    runs = run_in_processes(problem, _run, args, n_proc, progress)
+    if options.scheduler is None:
+        runs = run_in_processes(problem, _run, args, n_proc, progress)
+    else:
+        runs = run_on_cluster(options.scheduler, problem, _run, args, n_proc, progress)
     return NestedSample(problem.names, runs, problem, time.perf_counter() - t0, seeds, draw_seed, options.sampler)

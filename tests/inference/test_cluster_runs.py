@@ -1,0 +1,114 @@
+"""Nested runs as dask tasks (``[nested] scheduler``, bayestissue.inference.sampling.cluster): the same runs as in
+forked processes, progress back in this process, bad addresses refused, and a run whose client has gone stops."""
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayestissue._validation import ValidationError
+from bayestissue.inference import NestedOptions, sample_nested
+from bayestissue.inference.sampling.cluster import RunAbandoned, _task, check_scheduler
+from bayestissue.mechanics import ForwardModel, load_experiment
+from bayestissue.workflows import load_config
+from bayestissue.workflows.problem import build_problem
+
+T1 = Path(__file__).resolve().parents[2] / "data" / "T1.toml"
+TRUTH = [2.18, 2.91, 125, 0.75, 1.25, 13.4, 0.891, 0.02, 13.4, 0.891, 0.02]
+SD = 0.01
+
+
+def _short_creep_problem():
+    """The paper's creep at 120 s through the real forward model, two parameters sampled, known noise."""
+    e = load_experiment(T1)
+    keep = e.time_s <= 120.0
+    e = replace(e, time_s=e.time_s[keep], displacement_mm=None, force_mN=None)
+    y = ForwardModel(e)(np.asarray(TRUTH, float)[None])[0]
+    e = replace(e, displacement_mm=y + SD * np.random.default_rng(5).standard_normal(y.size), meta={})
+    cfg = load_config(
+        None,
+        sampled=["mu", "ginf2"],
+        bounds={"mu": [0.5, 5.0], "ginf2": [5.0, 50.0]},
+        initial=dict(zip(("mu", "kappa", "ginf1", "gamma1", "beta1", "ginf2", "gamma2", "beta2"), TRUTH, strict=False)),
+        tied={"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"},
+        noise_options={"sd": SD},
+    )
+    return build_problem([e], cfg)
+
+
+@pytest.mark.slow
+def test_runs_on_a_local_cluster_are_the_runs_of_forked_processes():
+    problem = _short_creep_problem()
+    small = {"n_live": 100, "n_eff": 200, "n_runs": 2, "n_networks": 1, "report_every": 1000}
+    here = sample_nested(problem, options=NestedOptions(**small, n_processes=1), rng=7)
+    seen = []
+    there = sample_nested(
+        problem,
+        options=NestedOptions(**small, n_processes=2, scheduler="local"),
+        rng=7,
+        progress=lambda *msg: seen.append(msg),
+    )
+    for a, b in zip(here.runs, there.runs, strict=True):
+        assert a.log_z == b.log_z and a.n_like == b.n_like and a.seed == b.seed
+        np.testing.assert_array_equal(a.points, b.points)
+        np.testing.assert_array_equal(a.log_w, b.log_w)
+    # every report of both runs came back: (run, evaluations, n_eff, explored, log Z), the evaluations rising
+    assert {m[0] for m in seen} == {0, 1}
+    for k in (0, 1):
+        counts = [m[1] for m in seen if m[0] == k]
+        assert counts == sorted(counts) and counts[-1] == there.runs[k].n_like
+        assert all(isinstance(m[3], bool) for m in seen)
+
+
+@pytest.mark.parametrize("bad", ["host:8786", "tcp://", "", 8786, "LOCAL"])
+def test_a_scheduler_that_is_neither_local_nor_an_address_is_refused(bad, tmp_path):
+    with pytest.raises(ValidationError, match="scheduler"):
+        NestedOptions(scheduler=bad)
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text(f"[nested]\nscheduler = {bad!r}\n".replace("'", '"'))
+    with pytest.raises(ValidationError, match=r"cfg.toml \[nested\] scheduler: expected \"local\" or a dask"):
+        load_config(cfg)
+
+
+def test_local_and_addresses_are_accepted():
+    assert check_scheduler("local") == "local"
+    assert check_scheduler("tcp://10.0.0.5:8786") == "tcp://10.0.0.5:8786"
+    assert NestedOptions(scheduler=None).scheduler is None
+
+
+def _reports_until_stopped(problem, marker, report):
+    """A stand-in run: reports every 50 ms for up to 60 s; says in ``marker`` whether it was told to stop."""
+    try:
+        for i in range(1200):
+            report(0, i, 0.0, False, 0.0)
+            time.sleep(0.05)
+    except RunAbandoned:
+        Path(marker).write_text("stopped")
+        raise
+    Path(marker).write_text("ran to the end")
+
+
+@pytest.mark.slow
+def test_a_run_whose_client_lets_go_stops_at_its_next_report(tmp_path):
+    from bayestissue.parallel import start_client
+
+    client = start_client(n_workers=1)
+    marker = tmp_path / "marker.txt"
+    try:
+        got = []
+        client.subscribe_topic("t", got.append)
+        fut = client.submit(_task, _reports_until_stopped, b"\x80\x04N.", (str(marker),), "t", pure=False)
+        deadline = time.time() + 60
+        while not got and time.time() < deadline:
+            time.sleep(0.1)
+        assert got, "the run never reported"
+        fut.release()  # what the scheduler does to a task whose client has gone
+        del fut
+        while not marker.exists() and time.time() < deadline:
+            time.sleep(0.1)
+        assert marker.read_text() == "stopped"
+    finally:
+        client.close()
+        client.cluster.close()
