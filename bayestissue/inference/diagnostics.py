@@ -149,6 +149,11 @@ class ParameterChecks:
         """Smallest bulk ESS divided by the wall time of the sampling."""
         return float(np.min(self.ess_bulk) / self.time_s) if self.time_s > 0 else np.nan
 
+    def quantiles(self, draws) -> np.ndarray:
+        """``(ndim, 3)`` the 5/50/95 % quantiles the summary reports, those whose errors :meth:`quantile_errors`
+        gives: here of ``draws``; the nested engine's report pools its runs' weighted quantiles (its override)."""
+        return np.quantile(draws, [0.05, 0.5, 0.95], axis=0).T
+
     def quantile_errors(self, draws) -> np.ndarray:
         """``(ndim, 3)`` Monte Carlo errors of the 5/50/95 % quantiles of ``draws``: from the bulk and tail ESS
         (:func:`quantile_mcse`); the nested engine's report has its runs' own (its override)."""

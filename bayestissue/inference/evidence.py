@@ -190,6 +190,12 @@ class NestedReport(ParameterChecks):
         p = self.quantile_p
         return bool(self.q_runs.shape[0] < 2 or np.all(p >= self.p_min / p.size))
 
+    def quantiles(self, draws=None) -> np.ndarray:
+        """``(ndim, len(LEVELS))`` the runs' weighted quantiles averaged over the runs: the estimate whose error
+        :attr:`quantile_mc_error` is (not the quantiles of resampled equal-weight ``draws``, which add the
+        resampling's noise; ``draws`` are not needed)."""
+        return self.q_runs.mean(axis=0)
+
     def quantile_errors(self, draws=None) -> np.ndarray:
         """:attr:`quantile_mc_error` (the runs' bootstraps; ``draws`` are not needed)."""
         return self.quantile_mc_error

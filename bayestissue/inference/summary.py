@@ -1,12 +1,12 @@
 """Summary table of a calibration: reference values, least squares, posterior, diagnostics and flags.
 
-One row per sampled parameter. Columns: the paper's Table 1 value and the generating value of a
-synthetic replica (when known), the least-squares estimate with its Wald interval, the posterior
-median, mean, sd and 90 % equal-tailed interval, the Monte Carlo error of the 5/50/95 % quantiles (``mcse_q05``,
-``mcse_median``, ``mcse_q95``: the nested engine's from its runs' bootstraps, :mod:`~bayestissue.inference.evidence`;
-the ensembles' from their ESS, :func:`~bayestissue.inference.diagnostics.quantile_mcse`), bulk and tail ESS,
-between-ensemble R-hat, the
-*contraction*
+One row per sampled parameter. Columns: the paper's Table 1 value and the generating value of a synthetic replica
+(when known), the least-squares estimate with its Wald interval, the posterior median, mean, sd and 90 % equal-tailed
+interval (the nested engine's median and interval: its runs' weighted quantiles averaged over the runs, the estimate
+whose error its report gives), the Monte Carlo error of the 5/50/95 % quantiles (``mcse_q05``, ``mcse_median``,
+``mcse_q95``: the nested engine's from its runs' bootstraps, :mod:`~bayestissue.inference.evidence`; the ensembles'
+from their ESS, :func:`~bayestissue.inference.diagnostics.quantile_mcse`), bulk and tail ESS, between-ensemble R-hat,
+the *contraction*
 
 .. math:: c = 1 - \\frac{\\operatorname{Var}_{\\text{post}}(u)}{\\operatorname{Var}_{\\text{prior}}(u)}
 
@@ -116,7 +116,7 @@ def summary_table(problem, least_squares, sample=None, report=None, *, reference
                                            "Wald columns describe other branches than the draws')")  # fmt: skip
     if sample is not None:
         flat = sample.flat()
-        q05, q50, q95 = np.quantile(flat, [0.05, 0.5, 0.95], axis=0)
+        q05, q50, q95 = np.quantile(flat, [0.05, 0.5, 0.95], axis=0) if report is None else report.quantiles(flat).T
         cols.update(median=q50, mean=flat.mean(axis=0), sd=flat.std(axis=0, ddof=1), q05=q05, q95=q95)
         u_post = pars.to_unit(flat)
         u_prior = pars.to_unit(pars.sample_prior(20000, rng=0))

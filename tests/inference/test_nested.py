@@ -118,6 +118,16 @@ def test_quantile_errors_match_the_run_to_run_scatter_and_the_closed_form(linear
     pooled = np.array([weighted_quantile(pts[:, j], w, LEVELS) for j in range(pts.shape[1])])
     assert np.all(np.abs(pooled - exact) < 4 * report.quantile_mc_error)
     assert "quantiles consistent with their own errors" in report.verdict()
+    # the summary reports the quantiles those errors are of: the runs' weighted ones averaged over the runs
+    from bayestissue.inference.summary import summary_table
+    from bayestissue.inference.warmstart import fit_least_squares
+
+    cols = summary_table(problem, fit_least_squares(problem), sample, report)["columns"]
+    table = np.stack([cols["q05"], cols["median"], cols["q95"]], axis=1)
+    np.testing.assert_array_equal(table, report.q_runs.mean(axis=0))
+    np.testing.assert_array_equal(np.stack([cols["mcse_q05"], cols["mcse_median"], cols["mcse_q95"]], 1),
+                                  report.quantile_mc_error)  # fmt: skip
+    assert np.all(np.abs(table - exact) < 4 * report.quantile_mc_error)
     moved = list(sample.runs)
     shift = np.zeros(pts.shape[1])
     shift[1] = 0.5 * np.sqrt(cov[1, 1])
