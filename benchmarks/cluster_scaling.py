@@ -8,8 +8,9 @@ W workers the wall time is the start-up plus the longest chain of runs one worke
 
     t(W) ~ t_start + ceil(R / W) * t_run,
 
-with t_run the measured mean run time and t_start the measured excess of the 1-worker wall time over the sum of the
-run times; beyond W = R workers only more runs (more effective draws, a tighter merged error) use the cores.
+with t_run the mean run time measured with every worker busy (runs sharing a machine slow each other: memory, turbo)
+and t_start the excess of the 1-worker wall time over the sum of its run times; beyond W = R workers only more runs
+(more effective draws, a tighter merged error) use the cores.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/cluster_scaling.py [--data T1] [--full] [--runs 2] [--workers 1 2]
         [--n-live 300] [--n-eff 500] [--max-evaluations N]
@@ -79,10 +80,14 @@ def main(argv=None) -> None:
         if w1 is not None and w > 1:
             print(f"  speed-up {w} workers over 1: {w1[0] / wall:.2f}x (ideal {min(w, args.runs)}x)")
     if w1 is not None:
-        t_run = float(np.mean(w1[1]))
+        w_max, _, loaded = max(dask)
+        t_alone, t_run = float(np.mean(w1[1])), float(np.mean(loaded))
         t_start = max(w1[0] - sum(w1[1]), 0.0)
+        print(f"  mean run time alone {t_alone:.1f} s, beside {w_max - 1} other(s) {t_run:.1f} s "
+              f"({t_run / t_alone:.2f}x: runs sharing this machine)")  # fmt: skip
         proj = ", ".join(f"{w} workers {t_start + math.ceil(args.runs / w) * t_run:.0f} s" for w in (4, 16, 64))
-        print(f"  projected (t_start {t_start:.1f} s + ceil(R/W) x t_run {t_run:.1f} s, R = {args.runs}): {proj}")
+        print(f"  projected for {args.runs} runs (t_start {t_start:.1f} s + ceil(R/W) x t_run {t_run:.1f} s): {proj}; "
+              f"R = W runs take the same wall time for W times the draws")  # fmt: skip
 
 
 if __name__ == "__main__":

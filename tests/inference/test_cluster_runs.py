@@ -2,7 +2,6 @@
 forked processes, progress back in this process, bad addresses refused, and a run whose client has gone stops."""
 
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -11,31 +10,14 @@ import pytest
 from bayestissue._validation import ValidationError
 from bayestissue.inference import NestedOptions, sample_nested
 from bayestissue.inference.sampling.cluster import RunAbandoned, _task, check_scheduler
-from bayestissue.mechanics import ForwardModel, load_experiment
 from bayestissue.workflows import load_config
 from bayestissue.workflows.problem import build_problem
-
-T1 = Path(__file__).resolve().parents[2] / "data" / "T1.toml"
-TRUTH = [2.18, 2.91, 125, 0.75, 1.25, 13.4, 0.891, 0.02, 13.4, 0.891, 0.02]
-SD = 0.01
+from tests.short_creep import short_creep, short_creep_config
 
 
 def _short_creep_problem():
-    """The paper's creep at 120 s through the real forward model, two parameters sampled, known noise."""
-    e = load_experiment(T1)
-    keep = e.time_s <= 120.0
-    e = replace(e, time_s=e.time_s[keep], displacement_mm=None, force_mN=None)
-    y = ForwardModel(e)(np.asarray(TRUTH, float)[None])[0]
-    e = replace(e, displacement_mm=y + SD * np.random.default_rng(5).standard_normal(y.size), meta={})
-    cfg = load_config(
-        None,
-        sampled=["mu", "ginf2"],
-        bounds={"mu": [0.5, 5.0], "ginf2": [5.0, 50.0]},
-        initial=dict(zip(("mu", "kappa", "ginf1", "gamma1", "beta1", "ginf2", "gamma2", "beta2"), TRUTH, strict=False)),
-        tied={"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"},
-        noise_options={"sd": SD},
-    )
-    return build_problem([e], cfg)
+    """The short creep (tests/short_creep.py), two parameters sampled, known noise."""
+    return build_problem([short_creep()], short_creep_config())
 
 
 @pytest.mark.slow

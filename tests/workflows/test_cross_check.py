@@ -2,37 +2,16 @@
 it, the comparison is in the verdict, the summary and ``cross_check.md``, and a killed check resumes from its own
 checkpoints (bayestissue.workflows.calibration)."""
 
-from dataclasses import replace
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from bayestissue.mechanics import ForwardModel, load_experiment
 from bayestissue.workflows import load_config, run_calibration
 from bayestissue.workflows.calibration import _every
-
-T1 = Path(__file__).resolve().parents[2] / "data" / "T1.toml"
-TRUTH = [2.18, 2.91, 125, 0.75, 1.25, 13.4, 0.891, 0.02, 13.4, 0.891, 0.02]
-SD = 0.01
-
-
-def _short_creep():
-    e = load_experiment(T1)
-    keep = e.time_s <= 120.0
-    e = replace(e, time_s=e.time_s[keep], displacement_mm=None, force_mN=None)
-    y = ForwardModel(e)(np.asarray(TRUTH, float)[None])[0]
-    return replace(e, displacement_mm=y + SD * np.random.default_rng(5).standard_normal(y.size), meta={})
+from tests.short_creep import short_creep, short_creep_config
 
 
 def _config(**over):
-    return load_config(
-        None,
-        sampled=["mu", "ginf2"],
-        bounds={"mu": [0.5, 5.0], "ginf2": [5.0, 50.0]},
-        tied={"ginf3": "ginf2", "gamma3": "gamma2", "beta3": "beta2"},
-        initial=dict(zip(("mu", "kappa", "ginf1", "gamma1", "beta1", "ginf2", "gamma2", "beta2"), TRUTH, strict=False)),
-        noise_options={"sd": SD},
+    return short_creep_config(
         n_starts=2,
         cross_check="nested",
         sampler={"n_ensembles": 2, "n_processes": 1, "max_steps": 1500, "prune_rounds": 1},
@@ -45,7 +24,7 @@ def _config(**over):
 @pytest.mark.slow
 def test_a_fit_is_cross_checked_by_a_nested_run(tmp_path):
     lines = []
-    out = run_calibration([_short_creep()], _config(), out_dir=tmp_path, say=lines.append)
+    out = run_calibration([short_creep()], _config(), out_dir=tmp_path, say=lines.append)
     check = out.report.engine_check
     assert check is not None and check.names == ("mu", "ginf2")
     assert check.agree, check.text()  # one posterior, two engines: the quantiles agree within the limits
@@ -62,7 +41,7 @@ def test_a_fit_is_cross_checked_by_a_nested_run(tmp_path):
         "nested_1.h5",
     ]
     # the check's runs resume from their checkpoints: same seed, same check
-    again = run_calibration([_short_creep()], _config(), out_dir=tmp_path, resume=True)
+    again = run_calibration([short_creep()], _config(), out_dir=tmp_path, resume=True)
     np.testing.assert_allclose(again.report.engine_check.q_b, check.q_b, rtol=1e-12)
 
 
