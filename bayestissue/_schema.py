@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from bayestissue._validation import ValidationError, check_known_keys
+from bayestissue.parallel import RUN_TARGET_TEXT, is_run_target
 
 __all__ = ["Key", "check_table", "expected", "reference_rows", "valid"]
 
@@ -79,7 +80,7 @@ def expected(key: Key) -> str:
         "groups": "two lists of parameter names of equal length",
         "pair": "a pair [lower, upper] of numbers",
         "sd": f'a number{bound} or "data"',
-        "scheduler": '"local" or a dask scheduler address like "tcp://host:8786"',
+        "scheduler": RUN_TARGET_TEXT,
     }[key.kind]
 
 
@@ -115,9 +116,7 @@ def valid(v, key: Key) -> bool:
     if k == "pair":
         return _is_pair(v)
     if k == "scheduler":
-        from bayestissue.parallel import LOCAL_CLUSTER, is_scheduler_address
-
-        return v == LOCAL_CLUSTER or is_scheduler_address(v)
+        return is_run_target(v)
     raise AssertionError(f"unknown schema kind {k!r}")  # a bug in a schema, not user input
 
 

@@ -40,7 +40,16 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 
-__all__ = ["task_key", "ResultCache", "LOCAL_CLUSTER", "fan_out", "is_scheduler_address", "start_client"]
+__all__ = [
+    "task_key",
+    "ResultCache",
+    "LOCAL_CLUSTER",
+    "RUN_TARGET_TEXT",
+    "fan_out",
+    "is_run_target",
+    "is_scheduler_address",
+    "start_client",
+]
 
 _log = logging.getLogger(__name__)
 
@@ -166,6 +175,16 @@ def is_scheduler_address(value) -> bool:
         return False
     protocol, sep, host = value.partition("://")
     return bool(protocol and sep and host)
+
+
+def is_run_target(value) -> bool:
+    """Whether ``value`` names where runs can go: :data:`LOCAL_CLUSTER` or a scheduler address (``[nested]
+    scheduler``; None, the forked processes, is the caller's default and not checked here)."""
+    return value == LOCAL_CLUSTER or is_scheduler_address(value)
+
+
+#: What :func:`is_run_target` accepts, as the error messages say it.
+RUN_TARGET_TEXT = f'"{LOCAL_CLUSTER}" or a dask scheduler address like "tcp://host:8786"'
 
 
 def start_client(scheduler: str | None = None, *, n_workers: int | None = None):

@@ -31,7 +31,7 @@ from collections.abc import Callable, Sequence
 
 from bayestissue._validation import ValidationError
 from bayestissue.parallel import LOCAL_CLUSTER as LOCAL
-from bayestissue.parallel import is_scheduler_address
+from bayestissue.parallel import RUN_TARGET_TEXT, is_run_target
 
 __all__ = ["LOCAL", "RunAbandoned", "check_scheduler", "run_on_cluster"]
 
@@ -43,9 +43,9 @@ class RunAbandoned(RuntimeError):
 def check_scheduler(value) -> str | None:
     """``value`` if it names where runs can go (None, ``"local"`` or a scheduler address such as
     ``"tcp://host:8786"``), else a :class:`ValidationError`."""
-    if value is None or value == LOCAL or is_scheduler_address(value):
+    if value is None or is_run_target(value):
         return value
-    raise ValidationError("scheduler", value, f'"{LOCAL}" or a dask scheduler address like "tcp://host:8786"')
+    raise ValidationError("scheduler", value, RUN_TARGET_TEXT)
 
 
 def _plain(m):
