@@ -303,7 +303,7 @@ def _stage1_on_cluster(client, spec, jobs, config, common, say) -> list:
     any, is raised (the finished specimens are read back by ``--resume``)."""
     from dask.distributed import as_completed
 
-    serial = replace(config, sampler=replace(config.sampler, n_processes=1),  # each specimen's runs stay in its task
+    serial = replace(config, sampler=replace(config.sampler, n_processes=1, scheduler=None),  # runs stay in the task
                      nested=replace(config.nested, n_processes=1, scheduler=None))  # fmt: skip
     futures = {client.submit(fit_specimen, exps, serial, sub, pure=False, **common): s
                for s, (exps, sub) in zip(spec.specimens, jobs, strict=True)}  # fmt: skip

@@ -53,6 +53,7 @@ RESUMABLE = frozenset(
         "sampler.max_steps",
         "sampler.min_steps",
         "sampler.n_processes",
+        "sampler.scheduler",
         "cross_check",
         "nested.max_evaluations",
         "nested.report_every",

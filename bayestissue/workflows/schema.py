@@ -89,6 +89,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "adapt_rounds": Key("int", "3", "adaptation rounds of the mixture proposal (discarded)", low=1),
         "adapt_steps": Key("int", "1000", "steps per adaptation round", low=1),
         "mixture_components": Key("int", "16", "largest number of mixture components", low=1),
+        "scheduler": Key("scheduler", "none", 'where the ensembles go: none (processes of this machine), "local" '
+                         '(dask tasks on a LocalCluster of n_processes workers) or a dask scheduler address '
+                         '("tcp://host:8786"; docs/cluster.md)'),
     },
     "nested": {
         "n_live": Key("int", "1000", "live points of each nested run", low=10, high=100_000),

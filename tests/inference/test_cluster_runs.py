@@ -1,5 +1,6 @@
-"""Nested runs as dask tasks (``[nested] scheduler``, bayestissue.inference.sampling.cluster): the same runs as in
-forked processes, progress back in this process, bad addresses refused, and a run whose client has gone stops."""
+"""Nested runs and emcee ensembles as dask tasks (``[nested]`` / ``[sampler] scheduler``,
+bayestissue.inference.sampling.cluster): the same runs as in forked processes, progress back in this process, bad
+addresses refused, and a run whose client has gone stops."""
 
 import time
 from pathlib import Path
@@ -44,13 +45,16 @@ def test_runs_on_a_local_cluster_are_the_runs_of_forked_processes():
         assert all(isinstance(m[3], bool) for m in seen)
 
 
+@pytest.mark.parametrize("section", ["nested", "sampler"])
 @pytest.mark.parametrize("bad", ["host:8786", "tcp://", "", 8786, "LOCAL"])
-def test_a_scheduler_that_is_neither_local_nor_an_address_is_refused(bad, tmp_path):
+def test_a_scheduler_that_is_neither_local_nor_an_address_is_refused(bad, section, tmp_path):
+    from bayestissue.inference import SamplerOptions
+
     with pytest.raises(ValidationError, match="scheduler"):
-        NestedOptions(scheduler=bad)
+        (NestedOptions if section == "nested" else SamplerOptions)(scheduler=bad)
     cfg = tmp_path / "cfg.toml"
-    cfg.write_text(f"[nested]\nscheduler = {bad!r}\n".replace("'", '"'))
-    with pytest.raises(ValidationError, match=r"cfg.toml \[nested\] scheduler: expected \"local\" or a dask"):
+    cfg.write_text(f"[{section}]\nscheduler = {bad!r}\n".replace("'", '"'))
+    with pytest.raises(ValidationError, match=rf"cfg.toml \[{section}\] scheduler: expected \"local\" or a dask"):
         load_config(cfg)
 
 
@@ -94,3 +98,37 @@ def test_a_run_whose_client_lets_go_stops_at_its_next_report(tmp_path):
     finally:
         client.close()
         client.cluster.close()
+
+
+@pytest.mark.slow
+def test_emcee_ensembles_on_a_local_cluster_are_the_ensembles_of_forked_processes(tmp_path, monkeypatch):
+    """``[sampler] scheduler``: both rounds of the shared-proposal path (preparation, then production with the mixture
+    fitted to all ensembles) as dask tasks give the forked processes' ensembles bit for bit, checkpoints included."""
+    from bayestissue.inference import SamplerOptions, sample_posterior
+
+    problem = _short_creep_problem()
+    assert problem.names == ("mu", "ginf2")
+    small = dict(n_walkers=8, n_ensembles=2, max_steps=200, check_every=100, prune_rounds=1, prune_steps=50,
+                 adapt_rounds=1, adapt_steps=100, mixture_components=2, moves="mixture", proposal="shared")  # fmt: skip
+    here = sample_posterior(problem, [2.18, 13.4], options=SamplerOptions(**small, n_processes=2), rng=11)
+
+    def no_forks(*a):
+        raise AssertionError("the ensembles went to forked processes")
+
+    monkeypatch.setattr("bayestissue.inference.sampling.cluster.run_in_processes", no_forks)
+    seen = []
+    there = sample_posterior(
+        problem,
+        [2.18, 13.4],
+        options=SamplerOptions(**small, n_processes=2, scheduler="local"),
+        checkpoint=tmp_path,
+        rng=11,
+        progress=lambda *msg: seen.append(msg),
+    )
+    np.testing.assert_array_equal(here.kept_z(), there.kept_z())
+    np.testing.assert_array_equal(here.kept_log_prob(), there.kept_log_prob())
+    assert here.n_evaluations == there.n_evaluations > 2 * 8 * 200
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ensemble_0.h5", "ensemble_1.h5"]
+    # progress of both ensembles came back: (ensemble, steps done, steps total, phase)
+    assert {m[0] for m in seen} == {0, 1}
+    assert max(m[1] for m in seen if m[0] == 0) == 200

@@ -3,6 +3,7 @@
 The counterpart of :mod:`~bayestissue.inference.sampling.processes` for runs that should leave this machine (a lab's
 16-64 cores, docs/cluster.md). The contract is the same: ``fn(problem, *a, report)`` for every ``a``, outputs in the
 order of the arguments, and whatever a run passes to ``report`` reaches ``progress`` in this process.
+:func:`run_runs` sends the runs of either engine (emcee ensembles, nested runs) to one or the other.
 
 - **The problem travels pickled, once per task**, and each task unpickles its own copy: a calibration problem holds
   its forward model's scratch arrays and evaluation counters, which two tasks on one multi-threaded worker must not
@@ -30,10 +31,11 @@ import uuid
 from collections.abc import Callable, Sequence
 
 from bayestissue._validation import ValidationError
+from bayestissue.inference.sampling.processes import run_in_processes
 from bayestissue.parallel import LOCAL_CLUSTER as LOCAL
 from bayestissue.parallel import RUN_TARGET_TEXT, is_run_target
 
-__all__ = ["LOCAL", "RunAbandoned", "check_scheduler", "run_on_cluster"]
+__all__ = ["LOCAL", "RunAbandoned", "check_scheduler", "run_on_cluster", "run_runs"]
 
 
 class RunAbandoned(RuntimeError):
@@ -98,6 +100,17 @@ def run_on_cluster(
         client.close()
         if started_here:
             client.cluster.close()
+
+
+def run_runs(
+    scheduler: str | None, problem, fn: Callable, args: Sequence[tuple], n_workers: int, progress: Callable | None
+) -> list:
+    """The runs ``fn(problem, *a, report)`` where ``scheduler`` says (``[sampler]``/``[nested] scheduler``): None, in
+    ``n_workers`` forked processes of this machine (:func:`~bayestissue.inference.sampling.processes.run_in_processes`);
+    otherwise as dask tasks (:func:`run_on_cluster`). Same contract, same outputs bit for bit."""
+    if scheduler is None:
+        return run_in_processes(problem, fn, args, n_workers, progress)
+    return run_on_cluster(scheduler, problem, fn, args, n_workers, progress)
 
 
 def _drain(events: _queue.Queue, progress: Callable | None) -> None:

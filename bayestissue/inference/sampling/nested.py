@@ -51,8 +51,7 @@ from bayestissue._validation import ValidationError
 from bayestissue.inference.marginal_noise import MarginalNoise, can_marginalise
 from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.sampling.checkpoints import checkpoint_path
-from bayestissue.inference.sampling.cluster import check_scheduler, run_on_cluster
-from bayestissue.inference.sampling.processes import run_in_processes
+from bayestissue.inference.sampling.cluster import check_scheduler, run_runs
 
 __all__ = [
     "SAMPLERS",
@@ -397,8 +396,5 @@ def sample_nested(
     n_proc = min(options.n_processes or os.cpu_count() or 1, options.n_runs)
     t0 = time.perf_counter()
     args = [(k, seeds[k], options, paths[k], resume) for k in range(options.n_runs)]
-    if options.scheduler is None:
-        runs = run_in_processes(problem, _run, args, n_proc, progress)
-    else:
-        runs = run_on_cluster(options.scheduler, problem, _run, args, n_proc, progress)
+    runs = run_runs(options.scheduler, problem, _run, args, n_proc, progress)
     return NestedSample(problem.names, runs, problem, time.perf_counter() - t0, seeds, draw_seed, options.sampler)

@@ -10,6 +10,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError, check_positive
 from bayestissue.inference.proposals import MixtureMove
+from bayestissue.inference.sampling.cluster import check_scheduler
 
 __all__ = ["MOVES", "ADAPTIVE_MOVES", "PROPOSALS", "SamplerOptions"]
 
@@ -40,7 +41,10 @@ class SamplerOptions:
     to even.
     moves : name in :data:`MOVES` (default DE 0.8 / DE-snooker 0.2).
     n_ensembles : independent ensembles (>= 4 for a between-ensemble R-hat).
-    n_processes : parallel processes; default ``min(n_ensembles, os.cpu_count())``.
+    n_processes : parallel processes; default ``min(n_ensembles, os.cpu_count())``; with ``scheduler = "local"`` the
+        LocalCluster's workers.
+    scheduler : where the ensembles go: None (forked processes of this machine), ``"local"`` (dask tasks on a
+        LocalCluster started for the call) or a dask scheduler's address (docs/cluster.md).
     max_steps : step cap per ensemble.
     min_steps : minimum steps per ensemble.
     check_every : steps between convergence checks.
@@ -74,6 +78,7 @@ class SamplerOptions:
     adapt_steps: int = 1000
     mixture_components: int = 16
     proposal: str = "own"
+    scheduler: str | None = None
 
     def __post_init__(self):
         if self.moves not in MOVES:
@@ -94,6 +99,7 @@ class SamplerOptions:
             raise ValidationError("n_processes", self.n_processes, "an integer >= 1 or None")
         if self.proposal not in PROPOSALS:
             raise ValidationError("proposal", self.proposal, f"one of {list(PROPOSALS)}")
+        check_scheduler(self.scheduler)
         check_positive("tau_factor", self.tau_factor)
         check_positive("tau_rtol", self.tau_rtol)
         check_positive("scatter", self.scatter)

@@ -1,5 +1,5 @@
-"""Independent ensembles run in parallel processes (:mod:`~bayestissue.inference.sampling.processes`), pooled into a
-:class:`PosteriorSample`."""
+"""Independent ensembles run in parallel processes or as dask tasks (:func:`~bayestissue.inference.sampling.cluster.
+run_runs`), pooled into a :class:`PosteriorSample`."""
 
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ from bayestissue._validation import ValidationError
 from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.proposals import fit_t_mixture
 from bayestissue.inference.sampling.checkpoints import checkpoint_path
+from bayestissue.inference.sampling.cluster import run_runs
 from bayestissue.inference.sampling.ensemble import EnsembleResult, _phase_report, _stored_run, run_ensemble
 from bayestissue.inference.sampling.options import ADAPTIVE_MOVES, SamplerOptions
 from bayestissue.inference.sampling.phases import prepare_ensemble
-from bayestissue.inference.sampling.processes import run_in_processes
 from bayestissue.inference.sampling.start import initial_walkers
 
 __all__ = ["PosteriorSample", "sample_posterior"]
@@ -98,7 +98,8 @@ def sample_posterior(
     progress: Callable[[int, int, int, str], None] | None = None,
     rng=None,
 ) -> PosteriorSample:
-    """Run ``options.n_ensembles`` independent ensembles, in parallel processes where cores allow.
+    """Run ``options.n_ensembles`` independent ensembles, in parallel processes where cores allow, or as dask tasks
+    (``options.scheduler``; with the shared proposal the preparation and the production are two rounds of tasks).
 
     Parameters
     ----------
@@ -120,7 +121,8 @@ def sample_posterior(
     Notes
     -----
     Worker processes are forked (POSIX), so the problem and its forward callables need not be
-    picklable; without ``fork`` the ensembles run one after another. With
+    picklable; without ``fork`` the ensembles run one after another. As dask tasks the problem is pickled
+    (:mod:`~bayestissue.inference.sampling.cluster`); the ensembles are the same bit for bit. With
     ``options.proposal == "shared"`` (and adaptive moves) every ensemble is first pruned and adapted
     (:func:`prepare_ensemble`), one mixture is fitted to all their last-round draws, and the
     production runs start from the prepared walkers with that mixture. When resuming, this
@@ -153,14 +155,16 @@ def sample_posterior(
     extra = [(0, 0)] * n_ens
     shared = options.proposal == "shared" and options.moves in ADAPTIVE_MOVES
     if shared and not (resume and all(_stored_run(paths[k], k, True)[0] > 0 for k in range(n_ens))):
-        prepared = run_in_processes(problem, _task, [("prepare", *a) for a in args], n_proc, None)
+        prepared = run_runs(options.scheduler, problem, _task, [("prepare", *a) for a in args], n_proc, None)
         draws = np.concatenate([out[1] for out, _, _ in prepared])
         mixture = fit_t_mixture(draws, n_components=options.mixture_components, seed=seeds[0] % (2**31 - 1))
         args = [(k, prepared[k][0][0], seeds[k], options, paths[k], resume, mixture) for k in range(n_ens)]
         extra = [(n_eval, n_fail) for _, n_eval, n_fail in prepared]
     results = []
     for (r, n_eval, n_fail), (n_eval0, n_fail0) in zip(
-        run_in_processes(problem, _task, [("run", *a) for a in args], n_proc, progress), extra, strict=True
+        run_runs(options.scheduler, problem, _task, [("run", *a) for a in args], n_proc, progress),
+        extra,
+        strict=True,
     ):
         r.n_evaluations, r.n_failed = n_eval + n_eval0, n_fail + n_fail0
         results.append(r)
