@@ -67,7 +67,7 @@ def main(argv=None) -> None:
     out = {}
     for name, opts in samplers.items():
         t0 = time.perf_counter()
-        s = sample_nested(problem, options=opts, rng=args.seed)
+        s = sample_nested(problem, options=opts, rng=args.seed, progress=_every(60.0, name))
         wall = time.perf_counter() - t0
         rep = assess_nested(s)
         out[name] = (s, rep)
@@ -101,6 +101,19 @@ def main(argv=None) -> None:
               f"{rel[i, j]:.3f} ({('5 %', 'median', '95 %')[j]}) | {z[i, j]:.1f} | "
               f"{'DIFFERS' if differs[i].any() else ''} |")  # fmt: skip
     print(f"the samplers {'DISAGREE' if differs.any() else 'agree'} on the quantiles")
+
+
+def _every(seconds: float, name: str):
+    """A progress callback that prints where the runs are at most every ``seconds`` (a killed benchmark still says
+    how far each run got)."""
+    last = [time.perf_counter()]
+
+    def report(run, n_evaluations, n_eff, explored, log_z):
+        if time.perf_counter() - last[0] >= seconds:
+            last[0] = time.perf_counter()
+            print(f"  [{name}] run {run}: {n_evaluations} calls, log Z so far {log_z:.3f}", flush=True)
+
+    return report
 
 
 if __name__ == "__main__":
