@@ -6,10 +6,10 @@ sampler runs ``--runs`` seeded runs in forked processes; per sampler the benchma
 calls, wall time and log Z with its own error, the merged verdict (the engine's: R-hat between runs, ESS, evidence
 scatter against the runs' errors, quantile scatter, and for UltraNest each run's insertion-order test), and the merged
 5 / 50 / 95 % quantiles with their Monte Carlo errors. Then the two samples are compared quantile by quantile as the
-emcee cross-check compares engines (:mod:`bayestissue.inference.engine_check`: a quantile differs when it moves by
-more than 0.1 of nautilus's 90 % width in box units and by more than 4 combined errors; here the quantiles are each
-sampler's weighted run quantiles averaged, the estimates their errors are of), and the log Z difference is given in
-units of its combined error.
+emcee cross-check compares engines (:func:`bayestissue.inference.engine_check.compare_quantiles`: a quantile differs
+when it moves by more than 0.1 of nautilus's 90 % width in box units and by more than 4 combined errors; here the
+quantiles are each sampler's weighted run quantiles averaged, the estimates their errors are of), and the log Z
+difference is given in units of its combined error.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/nested_samplers.py [--data T1] [--full] [--runs 2] [--n-live 200]
         [--slice-steps S] [--population 100] [--seed 1] [--max-evaluations N]
@@ -27,6 +27,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from bayestissue.inference import NestedOptions, sample_nested  # noqa: E402
+from bayestissue.inference.engine_check import compare_quantiles  # noqa: E402
 from bayestissue.inference.evidence import assess_nested  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.paper import MIRROR_TIES  # noqa: E402
@@ -34,9 +35,6 @@ from bayestissue.workflows import load_config  # noqa: E402
 from bayestissue.workflows.problem import build_problem  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-#: a quantile differs when it moves by more than TOL of nautilus's 90 % width (box units) and by more than Z_MIN
-#: combined Monte Carlo errors: the thresholds of bayestissue.inference.engine_check
-TOL, Z_MIN = 0.1, 4.0
 
 
 def main(argv=None) -> None:
@@ -82,25 +80,22 @@ def main(argv=None) -> None:
             print(f"  {p:>8}: {q[i, 1]:.4g} [{q[i, 0]:.4g}, {q[i, 2]:.4g}]  errors {e[i, 1]:.2g} [{e[i, 0]:.2g}, "
                   f"{e[i, 2]:.2g}]")  # fmt: skip
     (sa, ra), (sb, rb) = out["nautilus"], out["ultranest"]
-    qa, qb, ea, eb = ra.quantiles(), rb.quantiles(), ra.quantile_errors(), rb.quantile_errors()
-    to_unit = problem.parameters.to_unit
-    ua, ub = to_unit(qa.T).T, to_unit(qb.T).T
-    rel = np.abs(ua - ub) / np.maximum(ua[:, 2] - ua[:, 0], 1e-12)[:, None]
-    z = np.abs(qa - qb) / np.hypot(ea, eb)
-    differs = (rel > TOL) & (z > Z_MIN)
+    check = compare_quantiles(sa.names, ra.quantiles(), ra.quantile_errors(), rb.quantiles(), rb.quantile_errors(),
+                              problem.parameters.to_unit, engine="ultranest")  # fmt: skip
     dz = sb.log_z - sa.log_z
     n_err = dz / np.hypot(sa.log_z_err, sb.log_z_err)
     print(f"\nlog Z UltraNest - nautilus: {dz:+.3f} ({n_err:+.1f} combined errors); "
           f"calls UltraNest / nautilus: {sb.n_evaluations / max(sa.n_evaluations, 1):.1f}x")  # fmt: skip
     print(f"quantiles 5 / 50 / 95 %: largest difference over nautilus's 90 % width in box units, and in combined "
-          f"errors (differs: > {TOL} of the width and > {Z_MIN:g} errors, as engine_check)")  # fmt: skip
+          f"errors (differs: > {check.tol} of the width and > {check.z_min:g} errors, as engine_check)")  # fmt: skip
     print("| parameter | nautilus | UltraNest | largest / width | errors | |\n|---|---|---|---|---|---|")
-    for i, p in enumerate(sa.names):
-        j = int(np.argmax(rel[i]))
-        print(f"| {p} | {' / '.join(f'{v:.4g}' for v in qa[i])} | {' / '.join(f'{v:.4g}' for v in qb[i])} | "
-              f"{rel[i, j]:.3f} ({('5 %', 'median', '95 %')[j]}) | {z[i, j]:.1f} | "
-              f"{'DIFFERS' if differs[i].any() else ''} |")  # fmt: skip
-    print(f"the samplers {'DISAGREE' if differs.any() else 'agree'} on the quantiles")
+    for i, p in enumerate(check.names):
+        j = int(np.argmax(check.rel[i]))
+        print(f"| {p} | {' / '.join(f'{v:.4g}' for v in check.q_a[i])} | "
+              f"{' / '.join(f'{v:.4g}' for v in check.q_b[i])} | {check.rel[i, j]:.3f} "
+              f"({('5 %', 'median', '95 %')[j]}) | {check.z[i, j]:.1f} | "
+              f"{'DIFFERS' if check.differs[i].any() else ''} |")  # fmt: skip
+    print(f"the samplers {'agree' if check.agree else 'DISAGREE'} on the quantiles")
 
 
 def _every(seconds: float, name: str):

@@ -37,7 +37,7 @@ import numpy as np
 
 from bayestissue.inference.evidence import LEVELS  # the levels every Monte Carlo error in the package is for
 
-__all__ = ["EngineCheck", "compare_samples"]
+__all__ = ["EngineCheck", "compare_quantiles", "compare_samples"]
 
 #: Differing quantities named in the one-line text, largest first (cross_check.md has them all).
 SHOWN = 4
@@ -145,7 +145,8 @@ def compare_samples(
     names, draws_a, err_a, draws_b, err_b, to_unit, *, engine: str = "nested", tol: float = 0.1, z_min: float = 4.0,
     other_verdict: str = "", time_s: float = 0.0,
 ) -> EngineCheck:  # fmt: skip
-    """Compare two samples ``(n, ndim)`` of one posterior (module docstring).
+    """Compare two samples ``(n, ndim)`` of one posterior (module docstring): :func:`compare_quantiles` of their
+    5/50/95 % quantiles.
 
     Parameters
     ----------
@@ -156,6 +157,18 @@ def compare_samples(
     """
     q_a = np.quantile(np.asarray(draws_a, dtype=float), LEVELS, axis=0).T
     q_b = np.quantile(np.asarray(draws_b, dtype=float), LEVELS, axis=0).T
+    return compare_quantiles(names, q_a, err_a, q_b, err_b, to_unit, engine=engine, tol=tol, z_min=z_min,
+                             other_verdict=other_verdict, time_s=time_s)  # fmt: skip
+
+
+def compare_quantiles(
+    names, q_a, err_a, q_b, err_b, to_unit, *, engine: str = "nested", tol: float = 0.1, z_min: float = 4.0,
+    other_verdict: str = "", time_s: float = 0.0,
+) -> EngineCheck:  # fmt: skip
+    """Compare two estimates ``(ndim, 3)`` of one posterior's 5/50/95 % quantiles in natural units, with their
+    Monte Carlo errors ``err_a``, ``err_b`` (module docstring; e.g. nested runs' weighted quantiles, which need no
+    equal-weight draws). ``a`` is the checked estimate; ``to_unit`` as in :func:`compare_samples`."""
+    q_a, q_b = np.asarray(q_a, dtype=float), np.asarray(q_b, dtype=float)
     u_a, u_b = to_unit(q_a.T).T, to_unit(q_b.T).T
     width = np.maximum(u_a[:, 2] - u_a[:, 0], 1e-12)
     rel = np.abs(u_a - u_b) / width[:, None]
