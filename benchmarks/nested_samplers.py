@@ -12,7 +12,7 @@ quantiles are each sampler's weighted run quantiles averaged, the estimates thei
 difference is given in units of its combined error.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/nested_samplers.py [--data T1] [--full] [--runs 2] [--n-live 200]
-        [--slice-steps S] [--population 100] [--seed 1] [--max-evaluations N]
+        [--slice-steps S] [--population 100] [--seed 1] [--max-evaluations N] [--only nautilus|ultranest]
 """
 
 from __future__ import annotations
@@ -48,6 +48,7 @@ def main(argv=None) -> None:
     ap.add_argument("--population", type=int, default=100, help="UltraNest: points per likelihood batch")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--max-evaluations", type=int, default=None, help="cap each run (a smoke run)")
+    ap.add_argument("--only", choices=("nautilus", "ultranest"), default=None, help="run one sampler, no comparison")
     args = ap.parse_args(argv)
 
     exp = load_experiment(ROOT / "data" / f"{args.data}.toml")
@@ -62,6 +63,8 @@ def main(argv=None) -> None:
             **base, sampler="ultranest", slice_steps=args.slice_steps, population=args.population
         ),  # fmt: skip
     }
+    if args.only:
+        samplers = {args.only: samplers[args.only]}
     out = {}
     for name, opts in samplers.items():
         t0 = time.perf_counter()
@@ -79,6 +82,8 @@ def main(argv=None) -> None:
         for i, p in enumerate(s.names):
             print(f"  {p:>8}: {q[i, 1]:.4g} [{q[i, 0]:.4g}, {q[i, 2]:.4g}]  errors {e[i, 1]:.2g} [{e[i, 0]:.2g}, "
                   f"{e[i, 2]:.2g}]")  # fmt: skip
+    if args.only:
+        return
     (sa, ra), (sb, rb) = out["nautilus"], out["ultranest"]
     check = compare_quantiles(sa.names, ra.quantiles(), ra.quantile_errors(), rb.quantiles(), rb.quantile_errors(),
                               problem.parameters.to_unit, engine="ultranest")  # fmt: skip

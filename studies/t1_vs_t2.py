@@ -87,7 +87,7 @@ def main(argv=None) -> int:
 
         T.stage("cause 1: loading rate")
         best = int(np.argmax(cal["T1"].loglik[:, 0]))
-        rates = dsc.rate_study(args, client, e2, cal["T1"].draws[best])
+        rates = dsc.rate_study(args, client, e2, cal["T1"].draws[best], cal["T1"].draws)
 
         T.stage("causes 2+3: replicates, angle, scale")
         reps, pick, rtasks = dsc.replicate_tasks(args, cal, e1, e2)
@@ -140,6 +140,7 @@ def main(argv=None) -> int:
                 rates["profiles"],
                 {p: float(rates["truth"][names8.index(p)]) for p in dsc.VISC},
                 {p: tuple(PAPER_BOUNDS[names8.index(p)]) for p in dsc.VISC},
+                _best_at_t2(rates, names8) + rates["at_t2"],
             ),
             out / "t1_vs_t2_rates.png",
         )
@@ -199,6 +200,15 @@ def main(argv=None) -> int:
     write_record(path, record)
     print(f"  wrote {path}")
     return 0
+
+
+def _best_at_t2(rates, names) -> list:
+    """The best draw's profiles at T2's rate (if profiled there) in the form of the further truths'."""
+    pr = rates["profiles"].get(1.0)
+    if pr is None:
+        return []
+    return [{"truth": {p: float(rates["truth"][names.index(p)]) for p in dsc.VISC},
+             "ci": {p: pr[f"ci_{p}"] for p in dsc.VISC}, "classification": {p: pr[p] for p in dsc.VISC}}]  # fmt: skip
 
 
 if __name__ == "__main__":

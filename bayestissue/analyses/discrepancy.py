@@ -23,7 +23,15 @@ from bayestissue.analyses.identifiability import (
     profile_options,
 )
 from bayestissue.analyses.propagate import half_angles_deg, interval_width, pool_draws, replicate_tissues
-from bayestissue.analyses.records import CutPosterior, CutTest, RateProfile, RateStudy, SpecimenModel, Tension
+from bayestissue.analyses.records import (
+    CutPosterior,
+    CutTest,
+    RateProfile,
+    RateStudy,
+    RateTruth,
+    SpecimenModel,
+    Tension,
+)
 from bayestissue.analyses.scenarios import ramp_scenario, synthetic_replica
 from bayestissue.identifiability import (
     analyse_sensitivities,
@@ -77,13 +85,18 @@ def cross_predict(exp, draws, *, n, sd, rng):
     }
 
 
-def rate_study(args, client, e2, truth):
+def rate_study(args, client, e2, truth, draws):
     """Cause 1: T2-like ramps at several rates, data simulated from ``truth`` (a T1 mirror-model posterior draw:
     family 3 = family 2), analysed in the mirror model (8 parameters; the 11-parameter profiles of beta2 and beta3
     traded one family's viscosity for the other's, which made their classification jump between rates).
     Gauss-Newton sd of log gamma2, log beta2 at every rate; profiles of gamma2 and beta2 at the profiled rates,
     restarted from every improvement until none improves (cap
-    :data:`~bayestissue.analyses.identifiability.MAX_RESTARTS`)."""
+    :data:`~bayestissue.analyses.identifiability.MAX_RESTARTS`).
+
+    One truth answers for one point of T1's posterior, and where a profile is borderline the answer moves with it
+    (another machine's last bits once moved the best draw and flipped the beta2 answer at T2's rate). So the question
+    at T2's rate (f = 1) is asked again of ``mode.rate_truths`` further draws of ``draws`` (T1's posterior, seeded
+    choice): ``at_t2`` holds each draw's truth and profiles."""
     m = args.mode
     free = [NAMES.index(n) for n in MIRROR_NAMES]  # the mirror model's columns among the paper's 11
     lo, hi = PAPER_BOUNDS[free, 0], PAPER_BOUNDS[free, 1]
@@ -99,26 +112,43 @@ def rate_study(args, client, e2, truth):
         a = analyse_sensitivities(S, t8, MIRROR_NAMES, max_size=2)
         for p, j in zip(VISC, idx, strict=True):
             se[p].append(float(a.std_error_log[j]))
-    opt = profile_options(m, max_nfev=100)
-    kw = dict(lower=lo, upper=hi, names=MIRROR_NAMES, batched=True, options=opt)
+
+    def profiles_at(exp, t):
+        return profile_all(
+            MirrorResiduals(ExperimentResiduals((exp,))),
+            t,
+            idx,
+            lower=lo,
+            upper=hi,
+            names=MIRROR_NAMES,
+            batched=True,
+            options=profile_options(m, max_nfev=100),
+            max_restarts=MAX_RESTARTS,
+            refit_nfev=max(m.ls_nfev, 100),
+            map_fn=cached_map(args, client),
+        )
+
     cls = {}
     for f, exp in zip(m.rate_factors, scen, strict=True):
         if f not in m.rate_profile_factors:
             continue
-        ps = profile_all(
-            MirrorResiduals(ExperimentResiduals((exp,))),
-            t8,
-            idx,
-            max_restarts=MAX_RESTARTS,
-            refit_nfev=max(m.ls_nfev, 100),
-            map_fn=cached_map(args, client),
-            **kw,
-        )
+        ps = profiles_at(exp, t8)
         cls[f] = {"n_restarts": ps.n_restarts, "improvements": list(ps.improvements), "converged": ps.converged}
         for p, pr in zip(VISC, ps.profiles, strict=True):
             cls[f][p] = pr.classification
             cls[f][f"ci_{p}"] = pr.ci
-    return {"factors": list(m.rate_factors), "ramp_s": ramp_s, "se_log": se, "profiles": cls, "truth": truth}
+    at_t2 = []
+    ok = np.flatnonzero(np.all(np.isfinite(draws), axis=1))
+    pick = np.random.default_rng(args.seed + 300).choice(ok, min(m.rate_truths, ok.size), replace=False)
+    for k, row in enumerate(pick):
+        tk = interior(np.asarray(draws[row], dtype=float)[free], lo, hi)
+        exp = synthetic_replica(ramp_scenario(e2, 1.0), MirrorResiduals.expand(tk), sd=0.02, rng=args.seed + 400 + k)
+        ps = profiles_at(exp, tk)
+        at_t2.append({"truth": {p: float(tk[j]) for p, j in zip(VISC, idx, strict=True)},
+                      "classification": {p: pr.classification for p, pr in zip(VISC, ps.profiles, strict=True)},
+                      "ci": {p: pr.ci for p, pr in zip(VISC, ps.profiles, strict=True)}})  # fmt: skip
+    return {"factors": list(m.rate_factors), "ramp_s": ramp_s, "se_log": se, "profiles": cls, "truth": truth,
+            "at_t2": at_t2}  # fmt: skip
 
 
 def rate_record(rates: dict) -> RateStudy:
@@ -130,8 +160,13 @@ def rate_record(rates: dict) -> RateStudy:
         )
         for f, pr in rates["profiles"].items()
     }  # fmt: skip
+    at_t2 = [
+        RateTruth(truth=t["truth"], classification=t["classification"],
+                  ci={p: profile_interval(t["ci"][p]) for p in VISC})
+        for t in rates["at_t2"]
+    ]  # fmt: skip
     return RateStudy(factors=rates["factors"], ramp_s=rates["ramp_s"], se_log=rates["se_log"], profiles=profiles,
-                     truth=list(rates["truth"]))  # fmt: skip
+                     truth=list(rates["truth"]), at_t2=at_t2)  # fmt: skip
 
 
 def replicate_tasks(args, cal, e1, e2):

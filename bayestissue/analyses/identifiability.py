@@ -100,6 +100,7 @@ class Mode:
     profile_ftol: float
     rate_factors: tuple  # cause 1
     rate_profile_factors: tuple  # rates where beta2/beta3 are profiled
+    rate_truths: int  # further draws of T1's posterior as truths, profiled at T2's rate
     n_replicates: int  # cause 2
     replicate_steps: int  # per replicate chain (one ensemble), after the mixture adaptation
     keep: int = 4000
@@ -118,6 +119,7 @@ MODES = {
         (0.1, 1.0, 10.0),
         (1.0,),
         2,
+        2,
         60,
         keep=1000,
         ls_nfev=60,
@@ -132,6 +134,7 @@ MODES = {
         1e-6,
         (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0),
         (0.01, 0.1, 1.0, 10.0),
+        8,
         4,
         1500,
     ),
@@ -143,6 +146,7 @@ MODES = {
         1e-8,
         tuple(np.round(np.logspace(-2, 2, 13), 4)),
         tuple(np.round(np.logspace(-2, 2, 7), 4)),
+        20,
         40,
         6000,
         keep=20000,

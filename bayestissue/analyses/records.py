@@ -30,8 +30,8 @@ __all__ = [
     "CutPosterior", "CutTest", "DiscrepancyRecord", "FitCheck", "Fibre1Check", "IdentifiabilityRecord",
     "LawChoiceRecord", "TissueTermsRecord", "LawFit", "LocalAnalysis", "MaterialLaws", "MeasuredResult",
     "MeasuredRecord", "PairFit", "ParameterRow", "PosteriorMeasures", "PosteriorSummary", "Profile",
-    "ProfileReference", "RateProfile", "RateStudy", "ScenarioInfo", "SpecimenModel", "Tension", "HierarchyCase",
-    "HierarchyRecord",
+    "ProfileReference", "RateProfile", "RateStudy", "RateTruth", "ScenarioInfo", "SpecimenModel", "Tension",
+    "HierarchyCase", "HierarchyRecord",
 ]
 # fmt: on
 
@@ -259,14 +259,25 @@ class RateProfile:
 
 
 @dataclass(frozen=True)
+class RateTruth:
+    """The profiles at T2's rate when the truth is one draw of T1's mirror posterior (``truth`` by parameter)."""
+
+    truth: dict[str, float]
+    classification: dict[str, str]
+    ci: dict[str, tuple[float | None, float | None]]
+
+
+@dataclass(frozen=True)
 class RateStudy:
-    """T2-like ramps at rate factors f x the T2 rate, data from the T1 mirror posterior's best draw."""
+    """T2-like ramps at rate factors f x the T2 rate, data from the T1 mirror posterior's best draw; ``at_t2`` the
+    same question at T2's rate asked of further draws of that posterior as truths (does the answer hold across it?)."""
 
     factors: list[float]
     ramp_s: list[float]
     se_log: dict[str, list[float]]
     profiles: dict[str, RateProfile]
     truth: list[float]
+    at_t2: list[RateTruth]
 
 
 @dataclass(frozen=True)
@@ -312,7 +323,7 @@ class CutPosterior:
 @dataclass(frozen=True)
 class DiscrepancyRecord:
     SCHEMA: ClassVar[str] = "bayestissue.t1_vs_t2"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
 
     mode: str
     names: list[str]

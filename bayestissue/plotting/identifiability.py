@@ -218,20 +218,23 @@ def plot_cross_prediction(time_s, y_obs, band, median, *, title="", coverage=Non
 
 
 def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], profiles: Mapping, truth: Mapping[str, float],
-                    bounds: Mapping[str, tuple]):  # fmt: skip
+                    bounds: Mapping[str, tuple], draws: Sequence[Mapping] = ()):  # fmt: skip
     """What the cause-1 verdict rests on: for each viscosity parameter, the 95 % profile-likelihood interval at
     every profiled loading rate (bar; an open side runs to the box bound, drawn with an arrow), the true value, and
     the linearised (Gauss-Newton) 95 % interval at every rate for comparison (grey band, clipped to the box).
+    With ``draws`` a last panel: the beta2 profile at T2's rate for each truth drawn from T1's posterior, with that
+    truth.
 
     ``profiles[f][name]`` a classification, ``profiles[f]["ci_" + name]`` (lower, upper) with None or NaN for an
-    open side;
+    open side; ``draws``: mappings with ``truth[name]``, ``ci[name]`` and ``classification[name]``;
     ``truth[name]``, ``bounds[name]`` = (lower, upper)."""
     from bayestissue.plotting.style import FONT, tidy_axes
 
     names = list(se_log)
     f = np.asarray(rate_factors, float)
-    fig, axes = plt.subplots(1, len(names), figsize=(6.0 * len(names), 4.6), squeeze=False)
-    for ax, name in zip(axes[0], names, strict=True):
+    n_ax = len(names) + bool(draws)
+    fig, axes = plt.subplots(1, n_ax, figsize=(5.4 * n_ax, 4.6), squeeze=False)
+    for ax, name in zip(axes[0][: len(names)], names, strict=True):
         lo_b, hi_b = bounds[name]
         t = truth[name]
         log = name.startswith("beta")
@@ -267,9 +270,43 @@ def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], profiles: Ma
         ax.set_ylabel(f"{name} ({'1/s' if log else '1'})", fontsize=FONT["label"])
         ax.set_title(f"{name}: what each designed ramp pins down", fontsize=FONT["title"], loc="left")
         ax.legend(fontsize=FONT["legend"] - 1, loc="lower left" if not log else "upper left", framealpha=0.9)
+    if draws:
+        _plot_rate_draws(axes[0, -1], draws, "beta2", bounds["beta2"])
     tidy_axes(fig)
     fig.tight_layout()
     return fig
+
+
+def _plot_rate_draws(ax, draws, name, bounds):
+    """The profile of ``name`` at T2's rate for each truth drawn from T1's posterior, sorted by the true value
+    (a green dot on its bar: a closed bar through its dot found its truth)."""
+    from bayestissue.plotting.style import FONT
+
+    lo_b, hi_b = bounds
+    order = sorted(draws, key=lambda d: d["truth"][name])
+    tops = []
+    for x, d in enumerate(order):
+        ci = d["ci"][name]
+        open_lo, open_hi = (c is None or not np.isfinite(c) for c in ci)
+        lo, hi = (lo_b if open_lo else ci[0]), (hi_b if open_hi else ci[1])
+        tops.append(hi)
+        colour = "tab:blue" if d["classification"][name] == "identifiable" else "tab:orange"
+        ax.plot([x, x], [lo, hi], "-", color=colour, lw=5, alpha=0.8, solid_capstyle="butt")
+        for end, open_side, marker in ((lo, open_lo, "v"), (hi, open_hi, "^")):
+            if open_side:
+                ax.plot(x, end, marker, color="tab:orange", ms=9)
+        ax.plot(x, d["truth"][name], "o", color="tab:green", ms=5, zorder=3)
+    ax.plot([], [], "o", color="tab:green", ms=5, label=f"true {name} of the draw")
+    ax.plot([], [], "-", color="tab:blue", lw=5, label="profile 95 % interval (closed)")
+    ax.plot([], [], "-", color="tab:orange", lw=5, label="profile open (arrow: runs to the bound)")
+    ax.set_yscale("log")
+    ax.set_ylim(lo_b, min(hi_b, 10 * max(tops)))
+    ax.set_xlim(-0.7, len(order) - 0.3)
+    ax.set_xticks(range(len(order)), [f"{d['truth'][name]:.2g}" for d in order], rotation=45, fontsize=FONT["tick"])
+    ax.set_xlabel(f"truth: a draw of T1's posterior, by its {name} (1/s)", fontsize=FONT["label"])
+    ax.set_ylabel(f"{name} (1/s)", fontsize=FONT["label"])
+    ax.set_title(f"{name} at T2's rate: {len(order)} truths from T1", fontsize=FONT["title"], loc="left")
+    ax.legend(fontsize=FONT["legend"] - 1, loc="upper left", framealpha=0.9)
 
 
 def plot_widths(widths: Mapping[str, np.ndarray], names: Sequence[str], *, ax=None):

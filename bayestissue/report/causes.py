@@ -74,6 +74,14 @@ def _side(ci) -> tuple[str, float | None, float | None]:
     return ("below", None, hi) if hi is not None else ("open", None, None)
 
 
+def _seen(truths) -> dict:
+    """How many of ``truths`` (profiles at T2's rate, one per truth) show gamma2 (its profile bounded on a side) and
+    pin beta2 (closed), and how many truths there are."""
+    sides = [{p: _side(t.ci[p])[0] for p in VISC} for t in truths]
+    return {"n": len(sides), "gamma2": sum(s["gamma2"] != "open" for s in sides),
+            "beta2": sum(s["beta2"] == "closed" for s in sides)}  # fmt: skip
+
+
 def rates_context(D: DiscrepancyRecord, I: IdentifiabilityRecord) -> dict:
     """The loading-rate study: what a T2-like ramp at f x T2's rate pins down of the fibre viscosity."""
     R = D.rates
@@ -92,6 +100,7 @@ def rates_context(D: DiscrepancyRecord, I: IdentifiabilityRecord) -> dict:
     g = names.index("gamma2")
     t2 = I.profile_reference["T2"].theta_final
     at_t2 = R.profiles.get("1")
+    draws = sorted(({"truth": d.truth, "ci": d.ci} for d in R.at_t2), key=lambda d: d["truth"]["beta2"])
     return {
         "rows": rows,
         "visc": VISC,
@@ -102,6 +111,8 @@ def rates_context(D: DiscrepancyRecord, I: IdentifiabilityRecord) -> dict:
         "f_best_gn": R.factors[int(np.nanargmin(se_beta))],
         "truth": {"beta": R.truth[names.index("beta2")], "gamma": R.truth[names.index("gamma2")]},
         "at_t2": None if at_t2 is None else {p: _side(at_t2.ci[p]) for p in VISC},
+        "draws": draws,
+        "seen": _seen([at_t2] + list(R.at_t2) if at_t2 is not None else list(R.at_t2)),
         "open_fast": min((f for f in profiled if f >= 1 and f not in closed), default=None),
         "t2_posterior_gamma": (I.calibration["T2"].q05[g], I.calibration["T2"].q95[g]),
         "t2_ls": {n: t2[names.index(n)] for n in ("gamma2", "beta2", "gamma3", "beta3")},

@@ -63,13 +63,27 @@ def test_figures_are_built_and_labelled():
             },
             {"gamma2": 0.88, "beta2": 4e-4},
             {"gamma2": (0.1, 0.95), "beta2": (1e-5, 2.5)},
+            [  # further truths at T2's rate: one closed, one open below (None, as read from JSON)
+                {"truth": {"beta2": 3e-4}, "ci": {"beta2": (2e-4, 5e-4)}, "classification": {"beta2": "identifiable"}},
+                {
+                    "truth": {"beta2": 1e-3},
+                    "ci": {"beta2": (None, 4e-3)},
+                    "classification": {"beta2": "practically non-identifiable"},
+                },
+            ],
         ),  # fmt: skip
     ]
-    assert [len([ax for ax in f.axes if ax.get_visible()]) for f in figs] == [3, 1, 1, 1, 3, 1, 2]
+    assert [len([ax for ax in f.axes if ax.get_visible()]) for f in figs] == [3, 1, 1, 1, 3, 1, 3]
+    assert figs[6].axes[2].get_xlabel().startswith("truth: a draw of T1's posterior")
     assert figs[0].axes[0].get_xlabel() == "a"  # the parameter (with its unit, when it has one)
     assert "100 %" in figs[5].axes[0].get_title()
     # the rate figure: an open side runs to the box bound and ends in an arrow there
-    g_ax, b_ax = figs[6].axes
+    g_ax, b_ax, d_ax = figs[6].axes
+    # the truths panel, sorted by truth: the open draw (second) runs from the lower bound to its upper end, its truth
+    # a dot on it
+    assert any(list(ln.get_xdata()) == [1, 1] and list(ln.get_ydata()) == [1e-5, 4e-3] for ln in d_ax.lines)
+    assert any(ln.get_marker() == "o" and list(ln.get_xdata()) == [1] and list(ln.get_ydata()) == [1e-3]
+               for ln in d_ax.lines)  # fmt: skip
     assert g_ax.get_ylabel() == "gamma2 (1)" and b_ax.get_ylabel() == "beta2 (1/s)"
     bars = [ln for ln in b_ax.lines if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == 1.0]
     assert bars and bars[0].get_ydata()[0] == 1e-5 and bars[0].get_ydata()[1] == 2e-3
