@@ -249,14 +249,7 @@ def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], profiles: Ma
             ci = pr.get(f"ci_{name}")
             if ci is None:
                 continue
-            open_lo, open_hi = (c is None or not np.isfinite(c) for c in ci)  # None (JSON) or NaN: open side
-            lo, hi = (lo_b if open_lo else ci[0]), (hi_b if open_hi else ci[1])
-            closed = pr.get(name) == "identifiable"
-            ax.plot([float(fk)] * 2, [lo, hi], "-", color="tab:blue" if closed else "tab:orange", lw=4, alpha=0.8,
-                    solid_capstyle="butt", label=None)  # fmt: skip
-            for end, open_side, marker in ((lo, open_lo, "v"), (hi, open_hi, "^")):
-                if open_side:
-                    ax.plot(float(fk), end, marker, color="tab:orange", ms=9)
+            _profile_bar(ax, float(fk), ci, pr.get(name) == "identifiable", (lo_b, hi_b), lw=4)
             if first:
                 ax.plot([], [], "-", color="tab:blue", lw=4, label="profile 95 % interval (closed)")
                 ax.plot([], [], "-", color="tab:orange", lw=4, label="profile open (arrow: runs to the bound)")
@@ -277,6 +270,19 @@ def plot_rate_study(rate_factors, se_log: Mapping[str, np.ndarray], profiles: Ma
     return fig
 
 
+def _profile_bar(ax, x, ci, closed, bounds, *, lw):
+    """One profile interval at ``x``: a bar (blue closed, orange open); an open side (None from JSON, or NaN) runs to
+    the box bound and ends in an arrow. Returns the bar's upper end."""
+    open_lo, open_hi = (c is None or not np.isfinite(c) for c in ci)
+    lo, hi = (bounds[0] if open_lo else ci[0]), (bounds[1] if open_hi else ci[1])
+    ax.plot([x, x], [lo, hi], "-", color="tab:blue" if closed else "tab:orange", lw=lw, alpha=0.8,
+            solid_capstyle="butt")  # fmt: skip
+    for end, open_side, marker in ((lo, open_lo, "v"), (hi, open_hi, "^")):
+        if open_side:
+            ax.plot(x, end, marker, color="tab:orange", ms=9)
+    return hi
+
+
 def _plot_rate_draws(ax, draws, name, bounds):
     """The profile of ``name`` at T2's rate for each truth drawn from T1's posterior, sorted by the true value
     (a green dot on its bar: a closed bar through its dot found its truth)."""
@@ -286,15 +292,8 @@ def _plot_rate_draws(ax, draws, name, bounds):
     order = sorted(draws, key=lambda d: d["truth"][name])
     tops = []
     for x, d in enumerate(order):
-        ci = d["ci"][name]
-        open_lo, open_hi = (c is None or not np.isfinite(c) for c in ci)
-        lo, hi = (lo_b if open_lo else ci[0]), (hi_b if open_hi else ci[1])
-        tops.append(hi)
-        colour = "tab:blue" if d["classification"][name] == "identifiable" else "tab:orange"
-        ax.plot([x, x], [lo, hi], "-", color=colour, lw=5, alpha=0.8, solid_capstyle="butt")
-        for end, open_side, marker in ((lo, open_lo, "v"), (hi, open_hi, "^")):
-            if open_side:
-                ax.plot(x, end, marker, color="tab:orange", ms=9)
+        closed = d["classification"][name] == "identifiable"
+        tops.append(_profile_bar(ax, x, d["ci"][name], closed, bounds, lw=5))
         ax.plot(x, d["truth"][name], "o", color="tab:green", ms=5, zorder=3)
     ax.plot([], [], "o", color="tab:green", ms=5, label=f"true {name} of the draw")
     ax.plot([], [], "-", color="tab:blue", lw=5, label="profile 95 % interval (closed)")

@@ -76,10 +76,11 @@ def _side(ci) -> tuple[str, float | None, float | None]:
 
 def _seen(truths) -> dict:
     """How many of ``truths`` (profiles at T2's rate, one per truth) show gamma2 (its profile bounded on a side) and
-    pin beta2 (closed), and how many truths there are."""
+    pin beta2 (closed), how many truths there are, and whether the truths disagree (borderline)."""
     sides = [{p: _side(t.ci[p])[0] for p in VISC} for t in truths]
-    return {"n": len(sides), "gamma2": sum(s["gamma2"] != "open" for s in sides),
-            "beta2": sum(s["beta2"] == "closed" for s in sides)}  # fmt: skip
+    n, g = len(sides), sum(s["gamma2"] != "open" for s in sides)
+    b = sum(s["beta2"] == "closed" for s in sides)
+    return {"n": n, "gamma2": g, "beta2": b, "borderline": 0 < g < n or 0 < b < n}
 
 
 def rates_context(D: DiscrepancyRecord, I: IdentifiabilityRecord) -> dict:
