@@ -38,6 +38,7 @@ STAGES = (
     ("measured data", "measured_data.py"),
     ("laws", "law_choice.py"),
     ("specimens", "specimens.py"),
+    ("full model", "full_model.py"),
     ("report", "report.py"),
 )
 

@@ -12,6 +12,7 @@ controls            :class:`ControlsRecord`            scenarios and every pair'
 measured data       :class:`MeasuredRecord`            the real-data cases: fits, posteriors, verdicts
 laws                :class:`LawChoiceRecord`           each law on each material: transfer, joint evidence
 specimens           :class:`HierarchyRecord`           the hierarchical model's cases (analyses.hierarchy_record)
+full model          :class:`ModelChoiceRecord`         mirror vs 11-parameter model by nested runs (model_choice)
 ==================  =================================  ===========================================================
 
 Records hold measurements, not verdicts: the report applies the rules of :mod:`bayestissue.analyses.verdicts` to
@@ -479,6 +480,7 @@ class TissueTermsRecord:
 
 
 from bayestissue.analyses.hierarchy_record import HierarchyCase, HierarchyRecord  # noqa: E402
+from bayestissue.analyses.model_choice import ModelChoiceRecord  # noqa: E402
 
 #: Each record's file name in the study's output folder.
 FILES = {
@@ -490,4 +492,5 @@ FILES = {
     LawChoiceRecord: "laws_record.json",
     TissueTermsRecord: "tissue_terms_record.json",
     HierarchyRecord: "hierarchy_record.json",
+    ModelChoiceRecord: "model_choice_record.json",
 }

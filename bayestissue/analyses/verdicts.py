@@ -34,6 +34,9 @@ Rules
   :math:`2\ln B`): below :data:`BAYES_POSITIVE` *not worth more than a mention*, then *positive*, from
   :data:`BAYES_STRONG` *strong*, from :data:`BAYES_VERY_STRONG` *very strong*; a factor within
   :data:`BAYES_ERROR_SIGMAS` of its own Monte Carlo error is *within error*, whatever its size.
+* **Does the evidence choose the study's model?** (:func:`evidence_decides`) only if the nested runs of both models
+  met their convergence verdict and the factor is graded at least *positive*: an evidence from runs that disagree
+  has no trustworthy error, and a smaller or within-error factor is no choice.
 """
 
 from __future__ import annotations
@@ -47,6 +50,8 @@ from bayestissue.identifiability import CHI2_1_95, tension
 from bayestissue.inference.summary import PRIOR_DOMINATED_CONTRACTION
 
 __all__ = [
+    "DECISIVE_GRADES",
+    "evidence_decides",
     "BAYES_ERROR_SIGMAS",
     "BAYES_POSITIVE",
     "BAYES_STRONG",
@@ -313,3 +318,13 @@ def evidence_strength(log_bayes: float, error: float) -> str:
     if log_bayes >= BAYES_POSITIVE:
         return "positive"
     return "not worth more than a mention"
+
+
+#: The grades of :func:`evidence_strength` that choose a model.
+DECISIVE_GRADES = ("positive", "strong", "very strong")
+
+
+def evidence_decides(log_bayes: float, error: float, converged: bool) -> bool:
+    """Whether a log Bayes factor (either sign) with standard error ``error`` chooses between two models whose
+    nested runs ``converged`` (both; module docstring)."""
+    return bool(converged and evidence_strength(abs(log_bayes), error) in DECISIVE_GRADES)

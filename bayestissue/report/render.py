@@ -24,6 +24,7 @@ from bayestissue.report.causes import (
 from bayestissue.report.format import FILTERS
 from bayestissue.report.identify import estimates_context, identify_context
 from bayestissue.report.laws import laws_context
+from bayestissue.report.model_choice import model_choice_context
 from bayestissue.report.population import population_context
 from bayestissue.report.study import LABELS, StudyRecords, read_study_records
 
@@ -93,6 +94,7 @@ def report_context(records: StudyRecords) -> dict:
         "laws": laws_context(records.laws),
         "terms": _terms(records.tissue_terms),
         "population": population_context(records.hierarchy),
+        "model_choice": model_choice_context(records.model_choice, I, records.model_choice_now),
     }
 
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bayestissue.analyses.identifiability import LABELS
+from bayestissue.analyses.model_choice import ModelChoiceRecord, current_hash
 from bayestissue.analyses.records import (
     FILES,
     CalibrationRecord,
@@ -21,6 +22,9 @@ from bayestissue.io.records import read_record
 
 __all__ = ["LABELS", "StudyRecords", "read_study_records"]
 
+#: The bundled data the model-choice record's hash covers (a source checkout; without it the check is skipped).
+DATA_DIR = Path(__file__).resolve().parents[2] / "data"
+
 
 @dataclass(frozen=True)
 class StudyRecords:
@@ -34,18 +38,24 @@ class StudyRecords:
     laws: LawChoiceRecord | None = None
     tissue_terms: TissueTermsRecord | None = None
     hierarchy: HierarchyRecord | None = None
+    model_choice: ModelChoiceRecord | None = None
+    #: data set -> the current code's and data's hash for the model-choice record's mode (None: not checked)
+    model_choice_now: dict[str, str] | None = None
 
 
 def read_study_records(folder) -> StudyRecords:
     """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls,
-    measured-data, laws, tissue-terms and hierarchy records are optional (their stages may not have run), the other
-    two are not."""
+    measured-data, laws, tissue-terms, hierarchy and model-choice records are optional (their stages may not have
+    run), the other two are not. The model-choice record is checked against the current code (:func:`current_hash`)."""
     folder = Path(folder)
 
     def optional(cls):
         path = folder / FILES[cls]
         return read_record(path, cls) if path.is_file() else None
 
+    choice = optional(ModelChoiceRecord)
+    now = None if choice is None or not DATA_DIR.is_dir() else {
+        d: current_hash(choice.mode, DATA_DIR, d) for d in choice.cases}  # fmt: skip
     return StudyRecords(
         identifiability=read_record(folder / FILES[IdentifiabilityRecord], IdentifiabilityRecord),
         discrepancy=read_record(folder / FILES[DiscrepancyRecord], DiscrepancyRecord),
@@ -55,4 +65,6 @@ def read_study_records(folder) -> StudyRecords:
         laws=optional(LawChoiceRecord),
         tissue_terms=optional(TissueTermsRecord),
         hierarchy=optional(HierarchyRecord),
+        model_choice=choice,
+        model_choice_now=now,
     )

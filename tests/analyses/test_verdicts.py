@@ -179,6 +179,17 @@ def test_evidence_strength_at_its_thresholds(threshold, below, at_or_above):
     assert V.evidence_strength(threshold + 1e-9, err) == at_or_above
 
 
+def test_the_evidence_decides_only_from_converged_runs_and_a_positive_grade():
+    """1 nat (positive) with a small error decides either way round; just below 1 nat, within two errors, or from
+    runs that did not converge, it does not."""
+    assert V.evidence_decides(V.BAYES_POSITIVE, 0.01, True)
+    assert V.evidence_decides(-V.BAYES_POSITIVE, 0.01, True)
+    assert not V.evidence_decides(V.BAYES_POSITIVE - 1e-9, 0.01, True)
+    assert not V.evidence_decides(V.BAYES_POSITIVE, 0.01, False)
+    assert not V.evidence_decides(6.0, 3.0, True)  # within two errors
+    assert V.evidence_decides(6.0 + 1e-9, 3.0, True)
+
+
 def test_evidence_strength_within_its_error():
     """A factor of 10 nats with an error of 5 is no preference; just above two errors it is graded."""
     assert V.evidence_strength(10.0, 5.0) == "within error"

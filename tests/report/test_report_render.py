@@ -41,8 +41,9 @@ def test_the_report_opens_with_the_answers(records):
     assert "**partial**: fibre angle + specimen stiffness" in joined
     # the report before the template: 7 500 words; 4 517 after it, 5 452 with the laws section (issue 32), about
     # 6 100 with the specimens section (issue 35; its tables of typical and new specimens stay in their summary),
-    # 6 260 -> 6 450 with the rate study's further truths (a table of 8 rows)
-    assert sum(len(line.split()) for line in lines) < 6500
+    # 6 260 -> 6 450 with the rate study's further truths (a table of 8 rows), 7 235 with the model choice (issue 36:
+    # per test a table of the 11 parameters beside Table 1, 2 rows of runs' evidence and a line of verdict)
+    assert sum(len(line.split()) for line in lines) < 7400
 
 
 def test_verdicts_follow_the_records(records):
@@ -165,3 +166,32 @@ def test_the_rate_answer_counts_the_truths_drawn_from_t1(records):
     assert "| 0.9 | 0.002 | [open, open] | [open, open] |" in text  # section 3 lists every draw
     row, _ = answer(False, [truth(2e-3, False)])
     assert "its strength (gamma2) in none, its time scale (beta2) in none, of 2 truths" in row
+
+
+def test_the_model_choice_follows_the_runs_verdicts_and_the_code(records):
+    """The evidence chooses the study's model only from converged runs and a positive factor; the report says when
+    the committed record belongs to other code (the fixture's hashes are deliberately not a code's)."""
+    rec = records.model_choice
+    assert {c.numbers_hash for c in rec.cases.values()} == {"fixture-not-code"}
+
+    def render(converged, shift=0.0, now=None):
+        case = rec.cases["T1"]
+        m, f = case.models["mirror"], case.models["full"]
+        models = {"mirror": dataclasses.replace(m, converged=converged, merged=(f.merged[0] + shift, 0.1)),
+                  "full": dataclasses.replace(f, converged=converged, merged=(f.merged[0], 0.1))}  # fmt: skip
+        changed = dataclasses.replace(rec, cases={"T1": dataclasses.replace(case, models=models)})
+        now = {"T1": now or "0" * 16}
+        text = render_report(dataclasses.replace(records, model_choice=changed, model_choice_now=now))
+        row = next(line for line in text.splitlines() if line.startswith("| Which model do the data support"))
+        return row, text
+
+    row, text = render(True, shift=2.0)  # ln B = 2 +- 0.14: positive for the mirror model
+    assert "| T1: **mirror** | T1: ln B mirror over full 2.00 +- 0.14 (positive)" in row
+    assert "**stale** (rerun" in text
+    row, _ = render(True, shift=-4.0)
+    assert "| T1: **full** | T1: ln B mirror over full -4.00 +- 0.14 (strong)" in row
+    row, text = render(False, shift=2.0, now="fixture-not-code")
+    assert "| T1: not decided yet (the analyses use the mirror model) |" in row and "NOT CONVERGED" in row
+    assert "the current code's" in text and "did not meet their verdict" in text
+    row, _ = render(True, shift=0.2)
+    assert "not decided yet" in row and "(within error)" in row

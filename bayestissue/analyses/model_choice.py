@@ -1,0 +1,180 @@
+"""Which model the study uses, chosen by the evidence: the paper's 11 parameters against the mirror model (issue 36).
+
+The paper's model has three fibre families with their own parameters; the mirror model ties family 3 to family 2
+(:data:`bayestissue.paper.MIRROR_TIES`: the two families symmetric about the load axis, 8 sampled parameters). Both are
+run through the nested engine on the same data with the same box prior and the noise sd integrated out, and the log
+Bayes factor of the mirror model over the full one is
+
+.. math:: \\ln B = \\ln \\hat Z_\\text{mirror} - \\ln \\hat Z_\\text{full}, \\qquad
+   \\sigma_{\\ln B} = \\sqrt{\\sigma_\\text{mirror}^2 + \\sigma_\\text{full}^2},
+
+each :math:`\\sigma` the merged runs' error (the larger of their own errors combined and their scatter over
+:math:`\\sqrt n`, :attr:`~bayestissue.inference.sampling.NestedSample.log_z_err`). Graded by
+:func:`~bayestissue.analyses.verdicts.evidence_strength` (Kass & Raftery 1995).
+
+The 11-parameter posterior is long work (about 14 CPU-minutes per UltraNest run of 200 live points on this machine),
+so it runs under ``--full`` only and its record is committed; the default study reads it back. The record carries
+:func:`numbers_hash`, a hash of the code and data its numbers depend on, so a reader can tell whether the committed
+numbers still belong to the current code (the report says when they do not).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+__all__ = [
+    "DATASETS",
+    "SETTINGS",
+    "STAGE_SEED",
+    "DataChoice",
+    "ModelChoiceRecord",
+    "ModelEvidence",
+    "current_hash",
+    "model_evidence",
+    "numbers_hash",
+]
+
+#: The parts of the package the likelihood and the samplers are made of (a change elsewhere, e.g. in the report,
+#: leaves the numbers as they are).
+SOURCES = ("mechanics", "inference", "workflows", "paper.py", "_validation.py")
+#: The stage's seed: data set ``j`` of :data:`DATASETS`, model ``k`` (mirror 0, full 1) draws its runs' seeds from
+#: ``STAGE_SEED + 10 j + k``.
+STAGE_SEED = 20261128
+#: The data sets the stage can run, in seed order.
+DATASETS = ("T1", "T2")
+#: Nested options per mode and model (:class:`~bayestissue.inference.sampling.NestedOptions`) and where the runs go.
+#: ``--full``: 4 runs per model (the verdict's minimum). The mirror model by nautilus (4 x 200 live points converged
+#: in 121-182 s per run, docs/verification.md); the full model by UltraNest's population slice sampler (nautilus loses
+#: its peak there), 200 live points and 2 x 11 slice steps per new point: about 2.7 M calls and 14 CPU-minutes per run
+#: here (2026-11-27). ``--quick`` is a capped smoke run of the same code (its numbers mean nothing). The default study
+#: computes nothing and reads the committed ``--full`` record.
+SETTINGS = {
+    "quick": {
+        "scheduler": None,
+        "mirror": {"n_live": 50, "n_eff": 50, "n_runs": 2, "n_networks": 1, "max_evaluations": 3000},
+        "full": {"sampler": "ultranest", "n_live": 50, "n_eff": 50, "n_runs": 2, "population": 50,
+                 "max_evaluations": 6000},
+    },
+    "full": {
+        "scheduler": "local",
+        "mirror": {"n_live": 200, "n_eff": 500, "n_runs": 4, "n_networks": 1},
+        "full": {"sampler": "ultranest", "n_live": 200, "n_eff": 500, "n_runs": 4, "population": 100},
+    },
+}  # fmt: skip
+
+
+def numbers_hash(data_files, settings: str = "") -> str:
+    """SHA-256 (first 16 hex digits) over the source files of :data:`SOURCES`, the bytes of ``data_files`` and the
+    run's ``settings`` text: it changes with anything the stage's numbers depend on."""
+    package = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for part in SOURCES:
+        root = package / part
+        for f in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
+            h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    for f in data_files:
+        h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
+    h.update(settings.encode())
+    return h.hexdigest()[:16]
+
+
+def current_hash(mode: str, data_dir: Path, data: str = "T1") -> str:
+    """:func:`numbers_hash` of the current code, the data set ``data`` in ``data_dir``, ``mode``'s settings and the
+    seed."""
+    return numbers_hash([data_dir / f"{data}.toml", data_dir / f"{data}.csv"], repr((STAGE_SEED, SETTINGS[mode])))
+
+
+@dataclass(frozen=True)
+class ModelEvidence:
+    """One model's nested runs on one data set.
+
+    Per run: ``log_z`` and its own error, likelihood calls, seconds, finished (not capped). ``merged`` is the merged
+    runs' (log Z, error). ``quantiles[j]`` the 5 / 50 / 95 % quantiles of sampled parameter ``names[j]`` (natural
+    units, exchangeable families folded) and ``quantile_errors[j]`` their Monte Carlo errors
+    (:class:`~bayestissue.inference.evidence.NestedReport`); ``unit_quantiles`` the same in box coordinates (0 at
+    the lower bound, 1 at the upper, log scale where the prior is log-uniform) and ``run_unit_quantiles[k]`` run
+    ``k``'s own. ``verdict`` the engine's verdict line.
+    """
+
+    model: str
+    sampler: str
+    n_live: int
+    slice_steps: int | None
+    names: list[str]
+    log_z: list[float]
+    log_z_err: list[float]
+    calls: list[int]
+    time_s: list[float]
+    finished: list[bool]
+    merged: tuple[float, float]
+    converged: bool
+    verdict: str
+    rhat_max: float
+    quantiles: list[list[float]]
+    quantile_errors: list[list[float]]
+    unit_quantiles: list[list[float]]
+    run_unit_quantiles: list[list[list[float]]]
+    wall_s: float
+
+    def quantile(self, name: str) -> list[float]:
+        """(5 %, 50 %, 95 %) of ``name``."""
+        return self.quantiles[self.names.index(name)]
+
+
+@dataclass(frozen=True)
+class DataChoice:
+    """Both models on one data set: ``models`` by name (``"mirror"``, ``"full"``); ``numbers_hash`` of the code, the
+    data and the settings that computed them (:func:`current_hash`); ``seed`` the first model's (the next model's is
+    one more)."""
+
+    data: str
+    numbers_hash: str
+    seed: int
+    models: dict[str, ModelEvidence]
+
+
+@dataclass(frozen=True)
+class ModelChoiceRecord:
+    """The full-model stage's record: one :class:`DataChoice` per data set run (``"T1"``, ``"T2"``); ``scheduler``
+    and ``n_workers`` where the runs went."""
+
+    SCHEMA: ClassVar[str] = "bayestissue.model_choice"
+    VERSION: ClassVar[int] = 1
+    mode: str
+    scheduler: str
+    n_workers: int
+    cases: dict[str, DataChoice]
+
+
+def model_evidence(model: str, sample, report, options, wall_s: float) -> ModelEvidence:
+    """The record of one model's :class:`~bayestissue.inference.sampling.NestedSample` and its
+    :class:`~bayestissue.inference.evidence.NestedReport`."""
+    runs = sample.runs
+    to_unit = sample.problem.parameters.to_unit
+    q = report.quantiles()
+    return ModelEvidence(
+        model=model,
+        sampler=options.sampler,
+        n_live=options.n_live,
+        slice_steps=options.slice_steps,
+        names=list(sample.names),
+        log_z=[r.log_z for r in runs],
+        log_z_err=[r.log_z_err for r in runs],
+        calls=[r.n_like for r in runs],
+        time_s=[r.time_s for r in runs],
+        finished=[bool(r.finished) for r in runs],
+        merged=(sample.log_z, sample.log_z_err),
+        converged=report.converged,
+        verdict=report.verdict(),
+        rhat_max=float(np.nanmax(report.rhat)) if np.any(np.isfinite(report.rhat)) else float("nan"),
+        quantiles=q.tolist(),
+        quantile_errors=report.quantile_errors().tolist(),
+        unit_quantiles=to_unit(q.T).T.tolist(),
+        run_unit_quantiles=[to_unit(qk.T).T.tolist() for qk in report.q_runs],
+        wall_s=float(wall_s),
+    )

@@ -1,0 +1,73 @@
+"""The figure of the model choice (:mod:`bayestissue.analyses.model_choice`): each run's evidence with its own error,
+and each parameter's 90 % interval per run and merged, in box coordinates."""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from bayestissue.plotting.style import FONT, tidy_axes
+
+__all__ = ["MODEL_COLOURS", "plot_model_choice"]
+
+#: One colour per model, the same in both panels.
+MODEL_COLOURS = {"mirror": "tab:blue", "full": "tab:orange"}
+
+
+def _material(names) -> int:
+    return sum(not n.startswith("sigma") for n in names)
+
+
+def _evidence(ax, case) -> None:
+    for i, (name, e) in enumerate(case.models.items()):
+        x = i + np.linspace(-0.25, 0.25, len(e.log_z))
+        c = MODEL_COLOURS.get(name, "0.4")
+        ax.errorbar(x, e.log_z, yerr=e.log_z_err, fmt="o", color=c, capsize=3, label=f"{name}: runs (own errors)")
+        z, s = e.merged
+        ax.axhspan(z - s, z + s, color=c, alpha=0.18, lw=0)
+        ax.axhline(z, color=c, lw=1.2, label=f"{name}: merged {z:.2f} +- {s:.2f}")
+    ax.set_xticks(range(len(case.models)), [f"{n}\n({_material(e.names)} parameters + noise sd)"
+                                           for n, e in case.models.items()])  # fmt: skip
+    ax.set_ylabel("log evidence per run", fontsize=FONT["label"])
+    m, f = case.models.get("mirror"), case.models.get("full")
+    if m and f:
+        log_b, err = m.merged[0] - f.merged[0], np.hypot(m.merged[1], f.merged[1])
+        ax.set_title(f"ln B mirror over full = {log_b:.2f} +- {err:.2f}", fontsize=FONT["title"])
+    ax.legend(fontsize=FONT["legend"] - 1, loc="lower left")
+
+
+def _intervals(ax, case) -> None:
+    names = list(max(case.models.values(), key=lambda e: len(e.names)).names)
+    rows = {n: len(names) - 1 - i for i, n in enumerate(names)}
+    for j, (name, e) in enumerate(case.models.items()):
+        c = MODEL_COLOURS.get(name, "0.4")
+        shift = 0.2 - 0.4 * j
+        for p, u in zip(e.names, e.unit_quantiles, strict=True):
+            y = rows[p] + shift
+            runs = [r[e.names.index(p)] for r in e.run_unit_quantiles]
+            for k, r in enumerate(runs):
+                yk = y + (k - (len(runs) - 1) / 2) * 0.06
+                ax.plot([r[0], r[2]], [yk, yk], color=c, lw=0.8, alpha=0.6)
+            ax.plot([u[0], u[2]], [y - 0.12, y - 0.12], color=c, lw=3.0, solid_capstyle="butt",
+                    label=f"{name}: merged 90 %" if p == e.names[0] else None)  # fmt: skip
+            ax.plot(u[1], y - 0.12, "|", color="k", ms=8)
+    ax.set_yticks(list(rows.values()), list(rows))
+    ax.set_xlim(0, 1)
+    ax.set_xlabel("position in the prior box (log scale where log-uniform)", fontsize=FONT["label"])
+    ax.set_title("90 % interval per run (thin) and merged (thick, | median)", fontsize=FONT["title"])
+    ax.legend(fontsize=FONT["legend"] - 1, loc="lower right")
+
+
+def plot_model_choice(case, mode: str, path):
+    """Write the two-panel figure of one data set's :class:`~bayestissue.analyses.model_choice.DataChoice` (a ``mode``
+    run) to ``path``; returns the (closed) figure."""
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 5.5), gridspec_kw={"width_ratios": [1, 1.5]})
+    _evidence(a, case)
+    _intervals(b, case)
+    tidy_axes(fig)
+    fig.suptitle(f"{case.data}: the mirror model against the paper's 11 parameters ({mode} run)",
+                 fontsize=FONT["title"] + 1)  # fmt: skip
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return fig

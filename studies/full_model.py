@@ -1,0 +1,153 @@
+"""The paper's 11 parameters against the mirror model on T1 and T2, by the evidence (issue 36; analyses.model_choice).
+
+``--full`` runs both models through the nested engine on each data set (4 runs each; the runs as dask tasks on a
+LocalCluster, about 30 minutes of both cores per data set here) and writes into --out ``model_choice_record.json``
+(read by the report: the Bayes factors and the 11-parameter posteriors beside Table 1), ``model_choice_<data>.png``
+and ``model_choice_<data>.md``; the record after every data set, and ``--data`` reruns one data set and keeps the
+other's case. The default study computes nothing: it reads the committed record and says whether each case still
+belongs to the current code (:func:`~bayestissue.analyses.model_choice.current_hash`). ``--quick`` is a capped smoke
+run of the same code on T1 into its own folder.
+
+    python studies/full_model.py [--quick | --full] [--data T1 T2] [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+
+from bayestissue.analyses.model_choice import (  # noqa: E402
+    DATASETS,
+    SETTINGS,
+    STAGE_SEED,
+    DataChoice,
+    ModelChoiceRecord,
+    current_hash,
+    model_evidence,
+)
+from bayestissue.analyses.records import FILES  # noqa: E402
+from bayestissue.inference import NestedOptions, sample_nested  # noqa: E402
+from bayestissue.inference.evidence import assess_nested  # noqa: E402
+from bayestissue.io.records import read_record, write_record  # noqa: E402
+from bayestissue.mechanics import load_experiment  # noqa: E402
+from bayestissue.paper import MIRROR_TIES  # noqa: E402
+from bayestissue.plotting.evidence import plot_model_choice  # noqa: E402
+from bayestissue.workflows import load_config  # noqa: E402
+from bayestissue.workflows.problem import build_problem  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _progress(name: str, seconds: float = 60.0):
+    """Print where the runs are at most every ``seconds`` (a killed stage still says how far each run got)."""
+    last = [time.perf_counter()]
+
+    def report(run, n_evaluations, n_eff, explored, log_z):
+        if time.perf_counter() - last[0] >= seconds:
+            last[0] = time.perf_counter()
+            print(f"[full model] {name} run {run}: {n_evaluations} calls", flush=True)
+
+    return report
+
+
+def _case(mode: str, data: str, n_workers: int) -> DataChoice:
+    """Both models on ``data`` (checkpoints keyed by the code, data and settings hash: a killed --full run resumes
+    only runs that match them)."""
+    settings = SETTINGS[mode]
+    exp = load_experiment(ROOT / "data" / f"{data}.toml")
+    key = current_hash(mode, ROOT / "data", data)
+    cache = ROOT / ".cache" / "model_choice" / key
+    seed = STAGE_SEED + 10 * DATASETS.index(data)
+    models = {}
+    for k, (model, ties) in enumerate((("mirror", dict(MIRROR_TIES)), ("full", None))):
+        problem = build_problem([exp], load_config(None, tied=ties))
+        opts = NestedOptions(**settings[model], scheduler=settings["scheduler"], n_processes=n_workers,
+                             report_every=50_000)  # fmt: skip
+        print(f"[full model] {data}, {model} model ({problem.ndim} sampled): {opts.n_runs} {opts.sampler} runs of "
+              f"{opts.n_live} live points on {settings['scheduler'] or 'forked processes'} ({n_workers} workers); "
+              f"checkpoints in {cache / model}", flush=True)  # fmt: skip
+        t0 = time.perf_counter()
+        # a killed --full run resumes its finished points; a capped --quick run starts afresh (a resumed capped run
+        # goes on past its cap and would not repeat itself)
+        sample = sample_nested(problem, options=opts, checkpoint=cache / model, resume=mode == "full",
+                               rng=seed + k, progress=_progress(f"{data} {model}"))  # fmt: skip
+        wall = time.perf_counter() - t0
+        rep = assess_nested(sample)
+        models[model] = model_evidence(model, sample, rep, opts, wall)
+        print(f"[full model] {data} {model}: log Z {sample.log_z:.3f} +- {sample.log_z_err:.3f}, {wall:.0f} s; "
+              f"{rep.verdict()}", flush=True)  # fmt: skip
+    return DataChoice(data=data, numbers_hash=key, seed=seed, models=models)
+
+
+def _summary(case: DataChoice, mode: str) -> str:
+    lines = [f"# Mirror vs full model on {case.data} ({mode}; code and data {case.numbers_hash})", ""]
+    m, f = case.models["mirror"], case.models["full"]
+    log_b = m.merged[0] - f.merged[0]
+    err = (m.merged[1] ** 2 + f.merged[1] ** 2) ** 0.5
+    lines.append(f"log Bayes factor mirror over full: {log_b:.2f} +- {err:.2f}\n")
+    for e in (m, f):
+        lines.append(f"## {e.model} ({len(e.names)} sampled; {e.sampler}, {e.n_live} live points, {e.wall_s:.0f} s)\n")
+        lines.append(f"log Z {e.merged[0]:.3f} +- {e.merged[1]:.3f}; {e.verdict}\n")
+        lines.append("| run | log Z | calls | s |\n|---|---|---|---|")
+        for k, (z, ze, c, t) in enumerate(zip(e.log_z, e.log_z_err, e.calls, e.time_s, strict=True)):
+            lines.append(f"| {k} | {z:.3f} +- {ze:.3f} | {c} | {t:.0f} |")
+        lines.append("\n| parameter | 5 % | median | 95 % |\n|---|---|---|---|")
+        for n, q, qe in zip(e.names, e.quantiles, e.quantile_errors, strict=True):
+            lines.append(f"| {n} | " + " | ".join(f"{v:.4g} +- {s:.2g}" for v, s in zip(q, qe, strict=True)) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _read_back(path: Path) -> int:
+    """The default study: read the committed record and say, per data set, whether it belongs to the current code."""
+    if not path.is_file():
+        print(f"[full model] {path} not found: the default study reads the committed --full record; compute it "
+              "with `python studies/run_study.py --full --only 'full model'`")  # fmt: skip
+        return 0
+    rec = read_record(path, ModelChoiceRecord)
+    for data, case in rec.cases.items():
+        now = current_hash(rec.mode, ROOT / "data", data)
+        state = "matches the current code" if now == case.numbers_hash else f"STALE, the current code is {now}"
+        print(f"[full model] read {path} ({rec.mode}, {data}, code and data {case.numbers_hash}): {state}")
+    return 0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true", help="capped smoke run")
+    mode.add_argument("--full", action="store_true", help="compute the record (about 30 minutes of both cores each)")
+    ap.add_argument("--out", type=Path, default=ROOT / "figures")
+    ap.add_argument("--data", nargs="+", choices=DATASETS, help="data sets to run (default: T1 and T2; --quick T1)")
+    args = ap.parse_args(argv)
+    path = args.out / FILES[ModelChoiceRecord]
+    if not (args.quick or args.full):
+        return _read_back(path)
+    mode = "quick" if args.quick else "full"
+    data = args.data or (("T1",) if args.quick else DATASETS)
+    args.out.mkdir(parents=True, exist_ok=True)
+    # a data set not run now keeps its case from an existing record of the same mode (each case has its own hash)
+    old = read_record(path, ModelChoiceRecord) if path.is_file() else None
+    cases = dict(old.cases) if old is not None and old.mode == mode else {}
+    n_workers = min(4, os.cpu_count() or 1)
+    for d in data:
+        cases[d] = _case(mode, d, n_workers)
+        rec = ModelChoiceRecord(mode=mode, scheduler=SETTINGS[mode]["scheduler"] or "processes", n_workers=n_workers,
+                                cases={k: cases[k] for k in DATASETS if k in cases})  # fmt: skip
+        write_record(path, rec)  # after every data set: a killed stage keeps what it finished
+        (args.out / f"model_choice_{d}.md").write_text(_summary(cases[d], mode))
+        plot_model_choice(cases[d], mode, args.out / f"model_choice_{d}.png")
+        print(f"[full model] wrote {path}, model_choice_{d}.md and .png", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,106 @@
+"""The full-model stage (studies/full_model.py, analyses.model_choice): its record, its code hash, how the default
+study reads a committed record back, and its figure."""
+
+import dataclasses
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bayestissue.analyses import model_choice as MC
+from bayestissue.analyses.records import FILES
+from bayestissue.io.records import read_record, write_record
+from bayestissue.plotting.evidence import plot_model_choice
+
+ROOT = Path(__file__).resolve().parents[2]
+FIXTURE = ROOT / "tests" / "report" / "fixtures" / FILES[MC.ModelChoiceRecord]
+
+
+@pytest.fixture(scope="module")
+def record():
+    return read_record(FIXTURE, MC.ModelChoiceRecord)
+
+
+@pytest.fixture()
+def stage():
+    spec = importlib.util.spec_from_file_location("full_model_under_test", ROOT / "studies" / "full_model.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_hash_follows_the_data_and_the_settings(tmp_path):
+    data = tmp_path / "T1.csv"
+    data.write_text("t,u\n0,0\n")
+    a = MC.numbers_hash([data], "settings")
+    assert a == MC.numbers_hash([data], "settings") and len(a) == 16
+    assert MC.numbers_hash([data], "other settings") != a
+    data.write_text("t,u\n0,1\n")
+    assert MC.numbers_hash([data], "settings") != a
+    assert MC.current_hash("full", ROOT / "data") != MC.current_hash("quick", ROOT / "data")
+
+
+def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
+    """model_evidence on a stand-in sample: runs in order, merged values, quantiles mapped by the prior's to_unit."""
+    runs = [SimpleNamespace(log_z=z, log_z_err=0.1, n_like=100 + k, time_s=1.0, finished=True)
+            for k, z in enumerate((10.0, 10.4))]  # fmt: skip
+    params = SimpleNamespace(to_unit=lambda x: np.asarray(x) / 10.0)
+    sample = SimpleNamespace(runs=runs, names=("a", "b"), log_z=10.2, log_z_err=0.2,
+                             problem=SimpleNamespace(parameters=params))  # fmt: skip
+    q = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    report = SimpleNamespace(converged=False, verdict=lambda: "NOT CONVERGED: test", rhat=np.array([1.2, np.nan]),
+                             quantiles=lambda: q, quantile_errors=lambda: q / 100,
+                             q_runs=np.stack([q, q + 1]))  # fmt: skip
+    opts = SimpleNamespace(sampler="ultranest", n_live=50, slice_steps=None)
+    e = MC.model_evidence("full", sample, report, opts, 3.0)
+    assert e.log_z == [10.0, 10.4] and e.calls == [100, 101] and e.merged == (10.2, 0.2)
+    assert e.rhat_max == 1.2 and e.quantile("b") == [4.0, 5.0, 6.0]
+    assert e.unit_quantiles == (q / 10).tolist() and e.run_unit_quantiles[1] == ((q + 1) / 10).tolist()
+
+
+def test_the_default_study_reads_the_committed_record_and_says_whether_it_is_current(stage, record, tmp_path, capsys):
+    out = tmp_path / "figures"
+    out.mkdir()
+    assert stage.main(["--out", str(out)]) == 0
+    assert "not found: the default study reads the committed --full record" in capsys.readouterr().out
+    now = {d: MC.current_hash(record.mode, ROOT / "data", d) for d in record.cases}
+    cases = {d: dataclasses.replace(c, numbers_hash=now[d]) for d, c in record.cases.items()}
+    cases["T2"] = dataclasses.replace(cases["T2"], numbers_hash="0" * 16)
+    write_record(out / FILES[MC.ModelChoiceRecord], dataclasses.replace(record, cases=cases))
+    assert stage.main(["--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"T1, code and data {now['T1']}): matches the current code" in printed
+    assert f"T2, code and data {'0' * 16}): STALE, the current code is {now['T2']}" in printed
+
+
+def test_the_figure_shows_the_factor_and_every_parameter(record, tmp_path):
+    case = record.cases["T1"]
+    fig = plot_model_choice(case, record.mode, tmp_path / "m.png")
+    assert (tmp_path / "m.png").stat().st_size > 10_000
+    left, right = fig.axes
+    m, f = case.models["mirror"], case.models["full"]
+    assert f"ln B mirror over full = {m.merged[0] - f.merged[0]:.2f}" in left.get_title()
+    assert [t.get_text() for t in right.get_yticklabels()] == f.names
+
+
+@pytest.mark.slow
+def test_the_quick_stage_runs_both_models_and_writes_its_record(tmp_path):
+    """The stage's compute path end to end (capped runs: their numbers mean nothing): the record reads back with the
+    current code's hash, both models' runs and the figure and summary beside it."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", MPLBACKEND="Agg")
+    run = subprocess.run([sys.executable, str(ROOT / "studies" / "full_model.py"), "--quick", "--out", str(tmp_path)],
+                         capture_output=True, text=True, cwd=ROOT, env=env, timeout=600)  # fmt: skip
+    assert run.returncode == 0, run.stderr[-3000:]
+    rec = read_record(tmp_path / FILES[MC.ModelChoiceRecord], MC.ModelChoiceRecord)
+    case = rec.cases["T1"]
+    assert rec.mode == "quick" and list(rec.cases) == ["T1"]
+    assert case.numbers_hash == MC.current_hash("quick", ROOT / "data") and case.seed == MC.STAGE_SEED
+    assert [len(e.log_z) for e in case.models.values()] == [2, 2]
+    assert len(case.models["full"].names) == len(case.models["mirror"].names) + 3  # the three untied parameters
+    assert "log Bayes factor mirror over full" in (tmp_path / "model_choice_T1.md").read_text()
+    assert (tmp_path / "model_choice_T1.png").is_file()
