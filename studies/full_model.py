@@ -1,12 +1,13 @@
 """The paper's 11 parameters against the mirror model on T1 and T2, by the evidence (issue 36; analyses.model_choice).
 
 ``--full`` runs both models through the nested engine on each data set (4 runs each; the runs as dask tasks on a
-LocalCluster, about 30 minutes of both cores per data set here) and writes into --out ``model_choice_record.json``
+LocalCluster, about 45 minutes of both cores per data set here) and writes into --out ``model_choice_record.json``
 (read by the report: the Bayes factors and the 11-parameter posteriors beside Table 1), ``model_choice_<data>.png``
 and ``model_choice_<data>.md``; the record after every data set, and ``--data`` reruns one data set and keeps the
-other's case. The default study computes nothing: it reads the committed record and says whether each case still
-belongs to the current code (:func:`~bayestissue.analyses.model_choice.current_hash`). ``--quick`` is a capped smoke
-run of the same code on T1 into its own folder.
+other's case. A model whose committed runs match the current code, data and its settings is kept, not rerun. The
+default study computes nothing: it reads the committed record and says whether each model's runs still belong to the
+current code (:func:`~bayestissue.analyses.model_choice.current_hash`). ``--quick`` is a capped smoke run of the same
+code on T1 into its own folder.
 
     python studies/full_model.py [--quick | --full] [--data T1 T2] [--out DIR]
 """
@@ -58,43 +59,51 @@ def _progress(name: str, seconds: float = 60.0):
     return report
 
 
-def _case(mode: str, data: str, n_workers: int) -> DataChoice:
-    """Both models on ``data`` (checkpoints keyed by the code, data and settings hash: a killed --full run resumes
-    only runs that match them)."""
+def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataChoice:
+    """Both models on ``data``. Under --full, a model whose runs in ``old`` match the current code, data and settings
+    (:func:`~bayestissue.analyses.model_choice.current_hash`) is kept as it is, and checkpoints are keyed by that
+    hash: a killed --full run resumes only runs that match it."""
     settings = SETTINGS[mode]
     exp = load_experiment(ROOT / "data" / f"{data}.toml")
-    key = current_hash(mode, ROOT / "data", data)
-    cache = ROOT / ".cache" / "model_choice" / key
     seed = STAGE_SEED + 10 * DATASETS.index(data)
     models = {}
     for k, (model, ties) in enumerate((("mirror", dict(MIRROR_TIES)), ("full", None))):
+        key = current_hash(mode, ROOT / "data", data, model)
+        kept = old.models.get(model) if old is not None and mode == "full" else None
+        if kept is not None and kept.numbers_hash == key:
+            print(f"[full model] {data}, {model} model: kept, its runs match the current code ({key})", flush=True)
+            models[model] = kept
+            continue
+        cache = ROOT / ".cache" / "model_choice" / key
         problem = build_problem([exp], load_config(None, tied=ties))
         opts = NestedOptions(**settings[model], scheduler=settings["scheduler"], n_processes=n_workers,
                              report_every=50_000)  # fmt: skip
         print(f"[full model] {data}, {model} model ({problem.ndim} sampled): {opts.n_runs} {opts.sampler} runs of "
               f"{opts.n_live} live points on {settings['scheduler'] or 'forked processes'} ({n_workers} workers); "
-              f"checkpoints in {cache / model}", flush=True)  # fmt: skip
+              f"checkpoints in {cache}", flush=True)  # fmt: skip
         t0 = time.perf_counter()
         # a killed --full run resumes its finished points; a capped --quick run starts afresh (a resumed capped run
         # goes on past its cap and would not repeat itself)
-        sample = sample_nested(problem, options=opts, checkpoint=cache / model, resume=mode == "full",
+        sample = sample_nested(problem, options=opts, checkpoint=cache, resume=mode == "full",
                                rng=seed + k, progress=_progress(f"{data} {model}"))  # fmt: skip
         wall = time.perf_counter() - t0
         rep = assess_nested(sample)
-        models[model] = model_evidence(model, sample, rep, opts, wall)
+        models[model] = model_evidence(model, sample, rep, opts, wall, key)
         print(f"[full model] {data} {model}: log Z {sample.log_z:.3f} +- {sample.log_z_err:.3f}, {wall:.0f} s; "
               f"{rep.verdict()}", flush=True)  # fmt: skip
-    return DataChoice(data=data, numbers_hash=key, seed=seed, models=models)
+    return DataChoice(data=data, seed=seed, models=models)
 
 
 def _summary(case: DataChoice, mode: str) -> str:
-    lines = [f"# Mirror vs full model on {case.data} ({mode}; code and data {case.numbers_hash})", ""]
+    lines = [f"# Mirror vs full model on {case.data} ({mode})", ""]
     m, f = case.models["mirror"], case.models["full"]
-    log_b = m.merged[0] - f.merged[0]
-    err = (m.merged[1] ** 2 + f.merged[1] ** 2) ** 0.5
+    log_b, err = case.log_bayes()
     lines.append(f"log Bayes factor mirror over full: {log_b:.2f} +- {err:.2f}\n")
     for e in (m, f):
-        lines.append(f"## {e.model} ({len(e.names)} sampled; {e.sampler}, {e.n_live} live points, {e.wall_s:.0f} s)\n")
+        lines.append(
+            f"## {e.model} ({len(e.names)} sampled; {e.sampler}, {e.n_live} live points, {e.wall_s:.0f} s; "
+            f"code and data {e.numbers_hash})\n"
+        )
         lines.append(f"log Z {e.merged[0]:.3f} +- {e.merged[1]:.3f}; {e.verdict}\n")
         lines.append("| run | log Z | calls | s |\n|---|---|---|---|")
         for k, (z, ze, c, t) in enumerate(zip(e.log_z, e.log_z_err, e.calls, e.time_s, strict=True)):
@@ -114,9 +123,12 @@ def _read_back(path: Path) -> int:
         return 0
     rec = read_record(path, ModelChoiceRecord)
     for data, case in rec.cases.items():
-        now = current_hash(rec.mode, ROOT / "data", data)
-        state = "matches the current code" if now == case.numbers_hash else f"STALE, the current code is {now}"
-        print(f"[full model] read {path} ({rec.mode}, {data}, code and data {case.numbers_hash}): {state}")
+        for model, e in case.models.items():
+            now = current_hash(rec.mode, ROOT / "data", data, model)
+            state = "matches the current code" if now == e.numbers_hash else f"STALE, the current code is {now}"
+            print(
+                f"[full model] read {path} ({rec.mode}, {data}, {model} model, code and data {e.numbers_hash}): {state}"
+            )
     return 0
 
 
@@ -124,7 +136,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true", help="capped smoke run")
-    mode.add_argument("--full", action="store_true", help="compute the record (about 30 minutes of both cores each)")
+    mode.add_argument("--full", action="store_true", help="compute the record (about 45 min of both cores a test)")
     ap.add_argument("--out", type=Path, default=ROOT / "figures")
     ap.add_argument("--data", nargs="+", choices=DATASETS, help="data sets to run (default: T1 and T2; --quick T1)")
     args = ap.parse_args(argv)
@@ -134,12 +146,13 @@ def main(argv=None) -> int:
     mode = "quick" if args.quick else "full"
     data = args.data or (("T1",) if args.quick else DATASETS)
     args.out.mkdir(parents=True, exist_ok=True)
-    # a data set not run now keeps its case from an existing record of the same mode (each case has its own hash)
+    # a data set not run now keeps its case from an existing record of the same mode, and a model whose runs match
+    # the current code is not run again (each model's runs carry their own hash)
     old = read_record(path, ModelChoiceRecord) if path.is_file() else None
     cases = dict(old.cases) if old is not None and old.mode == mode else {}
     n_workers = min(4, os.cpu_count() or 1)
     for d in data:
-        cases[d] = _case(mode, d, n_workers)
+        cases[d] = _case(mode, d, n_workers, cases.get(d))
         rec = ModelChoiceRecord(mode=mode, scheduler=SETTINGS[mode]["scheduler"] or "processes", n_workers=n_workers,
                                 cases={k: cases[k] for k in DATASETS if k in cases})  # fmt: skip
         write_record(path, rec)  # after every data set: a killed stage keeps what it finished

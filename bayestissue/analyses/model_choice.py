@@ -13,9 +13,10 @@ each :math:`\\sigma` the merged runs' error (the larger of their own errors comb
 :func:`~bayestissue.analyses.verdicts.evidence_strength` (Kass & Raftery 1995).
 
 The 11-parameter posterior is long work (about 14 CPU-minutes per UltraNest run of 200 live points on this machine),
-so it runs under ``--full`` only and its record is committed; the default study reads it back. The record carries
-:func:`numbers_hash`, a hash of the code and data its numbers depend on, so a reader can tell whether the committed
-numbers still belong to the current code (the report says when they do not).
+so it runs under ``--full`` only and its record is committed; the default study reads it back. Each model's runs carry
+:func:`numbers_hash`, a hash of the code, data and settings their numbers depend on, so a reader can tell whether the
+committed numbers still belong to the current code (the report says when they do not), and a ``--full`` rerun
+recomputes only the models whose hash changed.
 """
 
 from __future__ import annotations
@@ -48,21 +49,25 @@ STAGE_SEED = 20261128
 #: The data sets the stage can run, in seed order.
 DATASETS = ("T1", "T2")
 #: Nested options per mode and model (:class:`~bayestissue.inference.sampling.NestedOptions`) and where the runs go.
-#: ``--full``: 4 runs per model (the verdict's minimum). The mirror model by nautilus (4 x 200 live points converged
-#: in 121-182 s per run, docs/verification.md); the full model by UltraNest's population slice sampler (nautilus loses
-#: its peak there), 200 live points and 2 x 11 slice steps per new point: about 2.7 M calls and 14 CPU-minutes per run
-#: here (2026-11-27). ``--quick`` is a capped smoke run of the same code (its numbers mean nothing). The default study
-#: computes nothing and reads the committed ``--full`` record.
+#: ``--full``: 4 runs per model (the verdict's minimum), both models by UltraNest's population slice sampler (2 x d
+#: slice steps per new point), so that the two evidences are estimated the same way: the full model with 200 live
+#: points (2.1-3.0 M calls and 10-20 CPU-minutes per run here, 2026-11-28/29), the mirror model, which is cheaper, with
+#: 400. The mirror model ran by nautilus (4 x 200) until 2026-11-29: its runs' own errors (0.04) were 2-4 x below their
+#: scatter on T1, and on T2 one run of four lost the peak (log Z 316.98 against 323.66-325.05; so did one UltraNest
+#: run of the full model with 200 live points, 317.57 against 322.54-324.23). ``--quick`` is a capped smoke run of
+#: the same code (its numbers mean nothing). The default study computes nothing and reads the committed ``--full``
+#: record.
 SETTINGS = {
     "quick": {
         "scheduler": None,
-        "mirror": {"n_live": 50, "n_eff": 50, "n_runs": 2, "n_networks": 1, "max_evaluations": 3000},
+        "mirror": {"sampler": "ultranest", "n_live": 50, "n_eff": 50, "n_runs": 2, "population": 50,
+                   "max_evaluations": 6000},
         "full": {"sampler": "ultranest", "n_live": 50, "n_eff": 50, "n_runs": 2, "population": 50,
                  "max_evaluations": 6000},
     },
     "full": {
         "scheduler": "local",
-        "mirror": {"n_live": 200, "n_eff": 500, "n_runs": 4, "n_networks": 1},
+        "mirror": {"sampler": "ultranest", "n_live": 400, "n_eff": 500, "n_runs": 4, "population": 100},
         "full": {"sampler": "ultranest", "n_live": 200, "n_eff": 500, "n_runs": 4, "population": 100},
     },
 }  # fmt: skip
@@ -83,10 +88,12 @@ def numbers_hash(data_files, settings: str = "") -> str:
     return h.hexdigest()[:16]
 
 
-def current_hash(mode: str, data_dir: Path, data: str = "T1") -> str:
-    """:func:`numbers_hash` of the current code, the data set ``data`` in ``data_dir``, ``mode``'s settings and the
-    seed."""
-    return numbers_hash([data_dir / f"{data}.toml", data_dir / f"{data}.csv"], repr((STAGE_SEED, SETTINGS[mode])))
+def current_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
+    """:func:`numbers_hash` of the current code, the data set ``data`` in ``data_dir``, the seed and ``mode``'s
+    settings for ``model`` (each model its own: a change of one model's settings leaves the other's runs current;
+    where the runs went is left out, since a run gives the same numbers wherever it ran, docs/cluster.md)."""
+    files = [data_dir / f"{data}.toml", data_dir / f"{data}.csv"]
+    return numbers_hash(files, repr((STAGE_SEED, model, SETTINGS[mode][model])))
 
 
 @dataclass(frozen=True)
@@ -98,10 +105,12 @@ class ModelEvidence:
     units, exchangeable families folded) and ``quantile_errors[j]`` their Monte Carlo errors
     (:class:`~bayestissue.inference.evidence.NestedReport`); ``unit_quantiles`` the same in box coordinates (0 at
     the lower bound, 1 at the upper, log scale where the prior is log-uniform) and ``run_unit_quantiles[k]`` run
-    ``k``'s own. ``verdict`` the engine's verdict line.
+    ``k``'s own. ``verdict`` the engine's verdict line. ``numbers_hash``: :func:`current_hash` of the code, data and
+    settings that computed them.
     """
 
     model: str
+    numbers_hash: str
     sampler: str
     n_live: int
     slice_steps: int | None
@@ -128,14 +137,17 @@ class ModelEvidence:
 
 @dataclass(frozen=True)
 class DataChoice:
-    """Both models on one data set: ``models`` by name (``"mirror"``, ``"full"``); ``numbers_hash`` of the code, the
-    data and the settings that computed them (:func:`current_hash`); ``seed`` the first model's (the next model's is
-    one more)."""
+    """Both models on one data set: ``models`` by name (``"mirror"``, ``"full"``), each with the hash of what computed
+    it; ``seed`` the first model's (the next model's is one more)."""
 
     data: str
-    numbers_hash: str
     seed: int
     models: dict[str, ModelEvidence]
+
+    def log_bayes(self) -> tuple[float, float]:
+        """:math:`\\ln B` of the mirror model over the full one and :math:`\\sigma_{\\ln B}` (module docstring)."""
+        m, f = self.models["mirror"].merged, self.models["full"].merged
+        return float(m[0] - f[0]), float(np.hypot(m[1], f[1]))
 
 
 @dataclass(frozen=True)
@@ -144,21 +156,22 @@ class ModelChoiceRecord:
     and ``n_workers`` where the runs went."""
 
     SCHEMA: ClassVar[str] = "bayestissue.model_choice"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
     mode: str
     scheduler: str
     n_workers: int
     cases: dict[str, DataChoice]
 
 
-def model_evidence(model: str, sample, report, options, wall_s: float) -> ModelEvidence:
+def model_evidence(model: str, sample, report, options, wall_s: float, key: str) -> ModelEvidence:
     """The record of one model's :class:`~bayestissue.inference.sampling.NestedSample` and its
-    :class:`~bayestissue.inference.evidence.NestedReport`."""
+    :class:`~bayestissue.inference.evidence.NestedReport`; ``key`` its :func:`current_hash`."""
     runs = sample.runs
     to_unit = sample.problem.parameters.to_unit
     q = report.quantiles()
     return ModelEvidence(
         model=model,
+        numbers_hash=key,
         sampler=options.sampler,
         n_live=options.n_live,
         slice_steps=options.slice_steps,

@@ -29,11 +29,12 @@ def _evidence(ax, case) -> None:
     ax.set_xticks(range(len(case.models)), [f"{n}\n({_material(e.names)} parameters + noise sd)"
                                            for n, e in case.models.items()])  # fmt: skip
     ax.set_ylabel("log evidence per run", fontsize=FONT["label"])
-    m, f = case.models.get("mirror"), case.models.get("full")
-    if m and f:
-        log_b, err = m.merged[0] - f.merged[0], np.hypot(m.merged[1], f.merged[1])
+    if {"mirror", "full"} <= case.models.keys():
+        log_b, err = case.log_bayes()
         ax.set_title(f"ln B mirror over full = {log_b:.2f} +- {err:.2f}", fontsize=FONT["title"])
-    ax.legend(fontsize=FONT["legend"] - 1, loc="lower left")
+    ax.margins(y=0.08)
+    # below the axes: runs that lost the peak sit far below the others, so no corner of the panel is always free
+    ax.legend(fontsize=FONT["legend"] - 1, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
 
 
 def _intervals(ax, case) -> None:
@@ -61,7 +62,7 @@ def _intervals(ax, case) -> None:
 def plot_model_choice(case, mode: str, path):
     """Write the two-panel figure of one data set's :class:`~bayestissue.analyses.model_choice.DataChoice` (a ``mode``
     run) to ``path``; returns the (closed) figure."""
-    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 5.5), gridspec_kw={"width_ratios": [1, 1.5]})
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 6.2), gridspec_kw={"width_ratios": [1, 1.5]})
     _evidence(a, case)
     _intervals(b, case)
     tidy_axes(fig)

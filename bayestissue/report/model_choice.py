@@ -4,8 +4,6 @@ parameters (graded by :func:`~bayestissue.analyses.verdicts.evidence_strength`, 
 
 from __future__ import annotations
 
-import numpy as np
-
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord
 from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import evidence_decides, evidence_strength
@@ -29,10 +27,9 @@ def _rows(case: DataChoice, I: IdentifiabilityRecord) -> list[dict]:
     return rows
 
 
-def _case(case: DataChoice, I: IdentifiabilityRecord, now: str | None) -> dict:
+def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None) -> dict:
     m, f = case.models["mirror"], case.models["full"]
-    log_b = m.merged[0] - f.merged[0]
-    err = float(np.hypot(m.merged[1], f.merged[1]))
+    log_b, err = case.log_bayes()
     converged = m.converged and f.converged
     return {
         "c": case,
@@ -44,16 +41,16 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: str | None) -> dict:
         "grade": evidence_strength(abs(log_b), err),
         "decides": evidence_decides(log_b, err, converged),
         "converged": converged,
-        "current": None if now is None else now == case.numbers_hash,
+        "stale": None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash],
         "rows": _rows(case, I),
     }
 
 
 def model_choice_context(
-    rec: ModelChoiceRecord | None, I: IdentifiabilityRecord, now: dict[str, str] | None
+    rec: ModelChoiceRecord | None, I: IdentifiabilityRecord, now: dict[str, dict[str, str]] | None
 ) -> dict | None:
-    """Everything the model-choice lines read; None without the record. ``now``: data set -> the current code's hash
-    for the record's mode (:func:`~bayestissue.analyses.model_choice.current_hash`; None: not checked)."""
+    """Everything the model-choice lines read; None without the record. ``now``: data set -> model -> the current
+    code's hash for the record's mode (:func:`~bayestissue.analyses.model_choice.current_hash`; None: not checked)."""
     if rec is None:
         return None
     now = now or {}

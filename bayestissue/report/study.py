@@ -39,8 +39,8 @@ class StudyRecords:
     tissue_terms: TissueTermsRecord | None = None
     hierarchy: HierarchyRecord | None = None
     model_choice: ModelChoiceRecord | None = None
-    #: data set -> the current code's and data's hash for the model-choice record's mode (None: not checked)
-    model_choice_now: dict[str, str] | None = None
+    #: data set -> model -> the current code's and data's hash for the model-choice record's mode (None: not checked)
+    model_choice_now: dict[str, dict[str, str]] | None = None
 
 
 def read_study_records(folder) -> StudyRecords:
@@ -54,8 +54,9 @@ def read_study_records(folder) -> StudyRecords:
         return read_record(path, cls) if path.is_file() else None
 
     choice = optional(ModelChoiceRecord)
-    now = None if choice is None or not DATA_DIR.is_dir() else {
-        d: current_hash(choice.mode, DATA_DIR, d) for d in choice.cases}  # fmt: skip
+    now = None
+    if choice is not None and DATA_DIR.is_dir():
+        now = {d: {m: current_hash(choice.mode, DATA_DIR, d, m) for m in c.models} for d, c in choice.cases.items()}
     return StudyRecords(
         identifiability=read_record(folder / FILES[IdentifiabilityRecord], IdentifiabilityRecord),
         discrepancy=read_record(folder / FILES[DiscrepancyRecord], DiscrepancyRecord),

@@ -42,7 +42,15 @@ def test_the_hash_follows_the_data_and_the_settings(tmp_path):
     assert MC.numbers_hash([data], "other settings") != a
     data.write_text("t,u\n0,1\n")
     assert MC.numbers_hash([data], "settings") != a
-    assert MC.current_hash("full", ROOT / "data") != MC.current_hash("quick", ROOT / "data")
+    full = {m: MC.current_hash("full", ROOT / "data", "T1", m) for m in ("mirror", "full")}
+    assert full["mirror"] != full["full"] != MC.current_hash("quick", ROOT / "data", "T1", "full")
+    assert MC.current_hash("full", ROOT / "data", "T2", "full") != full["full"]
+    # each model's hash follows its own settings only
+    changed = {**MC.SETTINGS["full"], "mirror": {**MC.SETTINGS["full"]["mirror"], "n_live": 999}}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(MC.SETTINGS, "full", changed)
+        assert MC.current_hash("full", ROOT / "data", "T1", "mirror") != full["mirror"]
+        assert MC.current_hash("full", ROOT / "data", "T1", "full") == full["full"]
 
 
 def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
@@ -57,8 +65,8 @@ def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
                              quantiles=lambda: q, quantile_errors=lambda: q / 100,
                              q_runs=np.stack([q, q + 1]))  # fmt: skip
     opts = SimpleNamespace(sampler="ultranest", n_live=50, slice_steps=None)
-    e = MC.model_evidence("full", sample, report, opts, 3.0)
-    assert e.log_z == [10.0, 10.4] and e.calls == [100, 101] and e.merged == (10.2, 0.2)
+    e = MC.model_evidence("full", sample, report, opts, 3.0, "abc")
+    assert e.numbers_hash == "abc" and e.log_z == [10.0, 10.4] and e.calls == [100, 101] and e.merged == (10.2, 0.2)
     assert e.rhat_max == 1.2 and e.quantile("b") == [4.0, 5.0, 6.0]
     assert e.unit_quantiles == (q / 10).tolist() and e.run_unit_quantiles[1] == ((q + 1) / 10).tolist()
 
@@ -68,14 +76,45 @@ def test_the_default_study_reads_the_committed_record_and_says_whether_it_is_cur
     out.mkdir()
     assert stage.main(["--out", str(out)]) == 0
     assert "not found: the default study reads the committed --full record" in capsys.readouterr().out
-    now = {d: MC.current_hash(record.mode, ROOT / "data", d) for d in record.cases}
-    cases = {d: dataclasses.replace(c, numbers_hash=now[d]) for d, c in record.cases.items()}
-    cases["T2"] = dataclasses.replace(cases["T2"], numbers_hash="0" * 16)
+    now = {(d, m): MC.current_hash(record.mode, ROOT / "data", d, m) for d, c in record.cases.items() for m in c.models}
+    cases = {
+        d: dataclasses.replace(
+            c, models={m: dataclasses.replace(e, numbers_hash=now[d, m]) for m, e in c.models.items()}
+        )
+        for d, c in record.cases.items()
+    }
+    t2 = cases["T2"]
+    cases["T2"] = dataclasses.replace(
+        t2, models={**t2.models, "full": dataclasses.replace(t2.models["full"], numbers_hash="0" * 16)}
+    )
     write_record(out / FILES[MC.ModelChoiceRecord], dataclasses.replace(record, cases=cases))
     assert stage.main(["--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert f"T1, code and data {now['T1']}): matches the current code" in printed
-    assert f"T2, code and data {'0' * 16}): STALE, the current code is {now['T2']}" in printed
+    assert f"T1, mirror model, code and data {now['T1', 'mirror']}): matches the current code" in printed
+    assert f"T2, mirror model, code and data {now['T2', 'mirror']}): matches the current code" in printed
+    assert f"T2, full model, code and data {'0' * 16}): STALE, the current code is {now['T2', 'full']}" in printed
+
+
+def test_a_full_rerun_keeps_the_models_whose_runs_match_the_current_code(stage, record, monkeypatch, capsys):
+    """Only a model whose hash changed is run again (here: none runs, the sampler is replaced by one that fails)."""
+    case = record.cases["T1"]
+    now = {m: MC.current_hash("full", ROOT / "data", "T1", m) for m in case.models}
+    current = dataclasses.replace(case, models={m: dataclasses.replace(e, numbers_hash=now[m])
+                                                for m, e in case.models.items()})  # fmt: skip
+
+    def no_runs(*a, **k):
+        raise AssertionError("a model whose runs match the current code was run again")
+
+    monkeypatch.setattr(stage, "sample_nested", no_runs)
+    kept = stage._case("full", "T1", 1, current)
+    assert kept.models == current.models
+    assert capsys.readouterr().out.count("kept, its runs match the current code") == 2
+    stale = dataclasses.replace(current, models={**current.models, "mirror": dataclasses.replace(
+        current.models["mirror"], numbers_hash="0" * 16)})  # fmt: skip
+    with pytest.raises(AssertionError, match="was run again"):
+        stage._case("full", "T1", 1, stale)
+    with pytest.raises(AssertionError, match="was run again"):  # --quick never keeps runs
+        stage._case("quick", "T1", 1, current)
 
 
 def test_the_figure_shows_the_factor_and_every_parameter(record, tmp_path):
@@ -85,6 +124,7 @@ def test_the_figure_shows_the_factor_and_every_parameter(record, tmp_path):
     left, right = fig.axes
     m, f = case.models["mirror"], case.models["full"]
     assert f"ln B mirror over full = {m.merged[0] - f.merged[0]:.2f}" in left.get_title()
+    assert case.log_bayes() == (m.merged[0] - f.merged[0], float(np.hypot(m.merged[1], f.merged[1])))
     assert [t.get_text() for t in right.get_yticklabels()] == f.names
 
 
@@ -99,7 +139,10 @@ def test_the_quick_stage_runs_both_models_and_writes_its_record(tmp_path):
     rec = read_record(tmp_path / FILES[MC.ModelChoiceRecord], MC.ModelChoiceRecord)
     case = rec.cases["T1"]
     assert rec.mode == "quick" and list(rec.cases) == ["T1"]
-    assert case.numbers_hash == MC.current_hash("quick", ROOT / "data") and case.seed == MC.STAGE_SEED
+    assert case.seed == MC.STAGE_SEED
+    assert {m: e.numbers_hash for m, e in case.models.items()} == {
+        m: MC.current_hash("quick", ROOT / "data", "T1", m) for m in ("mirror", "full")
+    }
     assert [len(e.log_z) for e in case.models.values()] == [2, 2]
     assert len(case.models["full"].names) == len(case.models["mirror"].names) + 3  # the three untied parameters
     assert "log Bayes factor mirror over full" in (tmp_path / "model_choice_T1.md").read_text()

@@ -172,7 +172,7 @@ def test_the_model_choice_follows_the_runs_verdicts_and_the_code(records):
     """The evidence chooses the study's model only from converged runs and a positive factor; the report says when
     the committed record belongs to other code (the fixture's hashes are deliberately not a code's)."""
     rec = records.model_choice
-    assert {c.numbers_hash for c in rec.cases.values()} == {"fixture-not-code"}
+    assert {e.numbers_hash for c in rec.cases.values() for e in c.models.values()} == {"fixture-not-code"}
 
     def render(converged, shift=0.0, now=None):
         case = rec.cases["T1"]
@@ -180,14 +180,14 @@ def test_the_model_choice_follows_the_runs_verdicts_and_the_code(records):
         models = {"mirror": dataclasses.replace(m, converged=converged, merged=(f.merged[0] + shift, 0.1)),
                   "full": dataclasses.replace(f, converged=converged, merged=(f.merged[0], 0.1))}  # fmt: skip
         changed = dataclasses.replace(rec, cases={"T1": dataclasses.replace(case, models=models)})
-        now = {"T1": now or "0" * 16}
+        now = {"T1": {"mirror": now or "0" * 16, "full": "fixture-not-code"}}
         text = render_report(dataclasses.replace(records, model_choice=changed, model_choice_now=now))
         row = next(line for line in text.splitlines() if line.startswith("| Which model do the data support"))
         return row, text
 
     row, text = render(True, shift=2.0)  # ln B = 2 +- 0.14: positive for the mirror model
     assert "| T1: **mirror** | T1: ln B mirror over full 2.00 +- 0.14 (positive)" in row
-    assert "**stale** (rerun" in text
+    assert "**stale**: the mirror model's runs belong to other code" in text
     row, _ = render(True, shift=-4.0)
     assert "| T1: **full** | T1: ln B mirror over full -4.00 +- 0.14 (strong)" in row
     row, text = render(False, shift=2.0, now="fixture-not-code")
