@@ -32,6 +32,7 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
     DataChoice,
     ModelChoiceRecord,
     current_hash,
+    current_hashes,
     model_evidence,
 )
 from bayestissue.analyses.records import FILES  # noqa: E402
@@ -122,10 +123,11 @@ def _read_back(path: Path) -> int:
               "with `python studies/run_study.py --full --only 'full model'`")  # fmt: skip
         return 0
     rec = read_record(path, ModelChoiceRecord)
+    now = current_hashes(rec, ROOT / "data")
     for data, case in rec.cases.items():
         for model, e in case.models.items():
-            now = current_hash(rec.mode, ROOT / "data", data, model)
-            state = "matches the current code" if now == e.numbers_hash else f"STALE, the current code is {now}"
+            current = now[data][model]
+            state = "matches the current code" if current == e.numbers_hash else f"STALE, the current code is {current}"
             print(
                 f"[full model] read {path} ({rec.mode}, {data}, {model} model, code and data {e.numbers_hash}): {state}"
             )

@@ -36,6 +36,7 @@ __all__ = [
     "ModelChoiceRecord",
     "ModelEvidence",
     "current_hash",
+    "current_hashes",
     "model_evidence",
     "numbers_hash",
 ]
@@ -94,6 +95,11 @@ def current_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
     where the runs went is left out, since a run gives the same numbers wherever it ran, docs/cluster.md)."""
     files = [data_dir / f"{data}.toml", data_dir / f"{data}.csv"]
     return numbers_hash(files, repr((STAGE_SEED, model, SETTINGS[mode][model])))
+
+
+def current_hashes(rec: ModelChoiceRecord, data_dir: Path) -> dict[str, dict[str, str]]:
+    """Data set -> model -> :func:`current_hash` for every model run in ``rec`` (in ``rec``'s mode)."""
+    return {d: {m: current_hash(rec.mode, data_dir, d, m) for m in c.models} for d, c in rec.cases.items()}
 
 
 @dataclass(frozen=True)

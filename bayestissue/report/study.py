@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bayestissue.analyses.identifiability import LABELS
-from bayestissue.analyses.model_choice import ModelChoiceRecord, current_hash
+from bayestissue.analyses.model_choice import ModelChoiceRecord, current_hashes
 from bayestissue.analyses.records import (
     FILES,
     CalibrationRecord,
@@ -46,7 +46,8 @@ class StudyRecords:
 def read_study_records(folder) -> StudyRecords:
     """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls,
     measured-data, laws, tissue-terms, hierarchy and model-choice records are optional (their stages may not have
-    run), the other two are not. The model-choice record is checked against the current code (:func:`current_hash`)."""
+    run), the other two are not. The model-choice record is checked against the current code
+    (:func:`~bayestissue.analyses.model_choice.current_hashes`)."""
     folder = Path(folder)
 
     def optional(cls):
@@ -54,9 +55,7 @@ def read_study_records(folder) -> StudyRecords:
         return read_record(path, cls) if path.is_file() else None
 
     choice = optional(ModelChoiceRecord)
-    now = None
-    if choice is not None and DATA_DIR.is_dir():
-        now = {d: {m: current_hash(choice.mode, DATA_DIR, d, m) for m in c.models} for d, c in choice.cases.items()}
+    now = current_hashes(choice, DATA_DIR) if choice is not None and DATA_DIR.is_dir() else None
     return StudyRecords(
         identifiability=read_record(folder / FILES[IdentifiabilityRecord], IdentifiabilityRecord),
         discrepancy=read_record(folder / FILES[DiscrepancyRecord], DiscrepancyRecord),
