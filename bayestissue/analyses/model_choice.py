@@ -12,7 +12,7 @@ each :math:`\\sigma` the merged runs' error (the larger of their own errors comb
 :math:`\\sqrt n`, :attr:`~bayestissue.inference.sampling.NestedSample.log_z_err`). Graded by
 :func:`~bayestissue.analyses.verdicts.evidence_strength` (Kass & Raftery 1995).
 
-The 11-parameter posterior is long work (about 14 CPU-minutes per UltraNest run of 200 live points on this machine),
+The 11-parameter posterior is long work (15-23 CPU-minutes per UltraNest run of 400 live points on this machine),
 so it runs under ``--full`` only and its record is committed; the default study reads it back. Each model's runs carry
 :func:`numbers_hash`, a hash of the code, data and settings their numbers depend on, so a reader can tell whether the
 committed numbers still belong to the current code (the report says when they do not), and a ``--full`` rerun
@@ -27,6 +27,9 @@ from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
+
+from bayestissue.analyses.box_width import BoxShift, box_shift
+from bayestissue.analyses.verdicts import evidence_consistent
 
 __all__ = [
     "DATASETS",
@@ -51,11 +54,12 @@ STAGE_SEED = 20261128
 DATASETS = ("T1", "T2")
 #: Nested options per mode and model (:class:`~bayestissue.inference.sampling.NestedOptions`) and where the runs go.
 #: ``--full``: 4 runs per model (the verdict's minimum), both models by UltraNest's population slice sampler (2 x d
-#: slice steps per new point), so that the two evidences are estimated the same way: the full model with 200 live
-#: points (2.1-3.0 M calls and 10-20 CPU-minutes per run here, 2026-11-28/29), the mirror model, which is cheaper, with
-#: 400. The mirror model ran by nautilus (4 x 200) until 2026-11-29: its runs' own errors (0.04) were 2-4 x below their
-#: scatter on T1, and on T2 one run of four lost the peak (log Z 316.98 against 323.66-325.05; so did one UltraNest
-#: run of the full model with 200 live points, 317.57 against 322.54-324.23). ``--quick`` is a capped smoke run of
+#: slice steps per new point) with 400 live points, so that the two evidences are estimated the same way. The mirror
+#: model ran by nautilus (4 x 200) until 2026-11-29: its runs' own errors (0.04) were 2-4 x below their scatter on T1,
+#: and on T2 one run of four lost the peak (log Z 316.98 against 323.66-325.05). The full model ran with 200 live
+#: points until 2026-11-29 (2.1-3.0 M calls and 10-20 CPU-minutes per run here): on T2 one run of four lost the
+#: peak too (317.57 against 322.54-324.23), and with fewer live points than the mirror model's its evidence was not
+#: estimated on the same footing. ``--quick`` is a capped smoke run of
 #: the same code (its numbers mean nothing). The default study computes nothing and reads the committed ``--full``
 #: record.
 SETTINGS = {
@@ -69,7 +73,7 @@ SETTINGS = {
     "full": {
         "scheduler": "local",
         "mirror": {"sampler": "ultranest", "n_live": 400, "n_eff": 500, "n_runs": 4, "population": 100},
-        "full": {"sampler": "ultranest", "n_live": 200, "n_eff": 500, "n_runs": 4, "population": 100},
+        "full": {"sampler": "ultranest", "n_live": 400, "n_eff": 500, "n_runs": 4, "population": 100},
     },
 }  # fmt: skip
 
@@ -106,13 +110,16 @@ def current_hashes(rec: ModelChoiceRecord, data_dir: Path) -> dict[str, dict[str
 class ModelEvidence:
     """One model's nested runs on one data set.
 
-    Per run: ``log_z`` and its own error, likelihood calls, seconds, finished (not capped). ``merged`` is the merged
-    runs' (log Z, error). ``quantiles[j]`` the 5 / 50 / 95 % quantiles of sampled parameter ``names[j]`` (natural
-    units, exchangeable families folded) and ``quantile_errors[j]`` their Monte Carlo errors
+    Per run: ``log_z`` and its own error, likelihood calls, seconds, finished (not capped), ``peak_reached`` (its
+    largest log-likelihood within d/2 of the least-squares optimum's). ``log_z_p``: the p-value of the runs' log Z
+    scatter against their own errors (:attr:`~bayestissue.inference.evidence.NestedReport.log_z_p`). ``merged`` is
+    the merged runs' (log Z, error). ``quantiles[j]`` the 5 / 50 / 95 % quantiles of sampled parameter
+    ``names[j]`` (natural units, exchangeable families folded) and ``quantile_errors[j]`` their Monte Carlo errors
     (:class:`~bayestissue.inference.evidence.NestedReport`); ``unit_quantiles`` the same in box coordinates (0 at
     the lower bound, 1 at the upper, log scale where the prior is log-uniform) and ``run_unit_quantiles[k]`` run
     ``k``'s own. ``verdict`` the engine's verdict line. ``numbers_hash``: :func:`current_hash` of the code, data and
-    settings that computed them.
+    settings that computed them. ``box``: the evidence under narrowed and widened log boxes
+    (:func:`~bayestissue.analyses.box_width.box_shift`; None where the runs' points were not at hand).
     """
 
     model: str
@@ -126,6 +133,8 @@ class ModelEvidence:
     calls: list[int]
     time_s: list[float]
     finished: list[bool]
+    peak_reached: list[bool]
+    log_z_p: float
     merged: tuple[float, float]
     converged: bool
     verdict: str
@@ -135,10 +144,17 @@ class ModelEvidence:
     unit_quantiles: list[list[float]]
     run_unit_quantiles: list[list[list[float]]]
     wall_s: float
+    box: BoxShift | None
 
     def quantile(self, name: str) -> list[float]:
         """(5 %, 50 %, 95 %) of ``name``."""
         return self.quantiles[self.names.index(name)]
+
+    @property
+    def runs_agree(self) -> bool:
+        """Whether the runs agree on the evidence (:func:`~bayestissue.analyses.verdicts.evidence_consistent`)."""
+        ok = [f and p for f, p in zip(self.finished, self.peak_reached, strict=True)]
+        return evidence_consistent(self.log_z_p, ok)
 
 
 @dataclass(frozen=True)
@@ -155,6 +171,20 @@ class DataChoice:
         m, f = self.models["mirror"].merged, self.models["full"].merged
         return float(m[0] - f[0]), float(np.hypot(m[1], f[1]))
 
+    def log_bayes_moves(self) -> dict[str, tuple[float, float]] | None:
+        """How :math:`\\ln B` moves (value, error) when every log box is narrowed (``"narrowed"``) or widened
+        (``"widened_volume"``: the volume terms alone; ``"widened_flat"``: the flat estimate; no Monte Carlo error)
+        by :data:`~bayestissue.analyses.box_width.FACTOR` (:mod:`~bayestissue.analyses.box_width`); None unless
+        both models carry their :attr:`ModelEvidence.box`."""
+        m, f = self.models["mirror"].box, self.models["full"].box
+        if m is None or f is None:
+            return None
+        return {
+            "narrowed": (m.narrowed[0] - f.narrowed[0], float(np.hypot(m.narrowed[1], f.narrowed[1]))),
+            "widened_volume": (m.widened_volume - f.widened_volume, 0.0),
+            "widened_flat": (m.widened_flat - f.widened_flat, 0.0),
+        }
+
 
 @dataclass(frozen=True)
 class ModelChoiceRecord:
@@ -162,7 +192,7 @@ class ModelChoiceRecord:
     and ``n_workers`` where the runs went."""
 
     SCHEMA: ClassVar[str] = "bayestissue.model_choice"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
     mode: str
     scheduler: str
     n_workers: int
@@ -187,6 +217,8 @@ def model_evidence(model: str, sample, report, options, wall_s: float, key: str)
         calls=[r.n_like for r in runs],
         time_s=[r.time_s for r in runs],
         finished=[bool(r.finished) for r in runs],
+        peak_reached=[not s for s in np.asarray(report.short_of_peak, dtype=bool).tolist()],
+        log_z_p=float(report.log_z_p),
         merged=(sample.log_z, sample.log_z_err),
         converged=report.converged,
         verdict=report.verdict(),
@@ -196,4 +228,5 @@ def model_evidence(model: str, sample, report, options, wall_s: float, key: str)
         unit_quantiles=to_unit(q.T).T.tolist(),
         run_unit_quantiles=[to_unit(qk.T).T.tolist() for qk in report.q_runs],
         wall_s=float(wall_s),
+        box=box_shift(runs, sample.problem.parameters.sampled),
     )

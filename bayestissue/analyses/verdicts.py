@@ -34,9 +34,19 @@ Rules
   :math:`2\ln B`): below :data:`BAYES_POSITIVE` *not worth more than a mention*, then *positive*, from
   :data:`BAYES_STRONG` *strong*, from :data:`BAYES_VERY_STRONG` *very strong*; a factor within
   :data:`BAYES_ERROR_SIGMAS` of its own Monte Carlo error is *within error*, whatever its size.
-* **Does the evidence choose the study's model?** (:func:`evidence_decides`) only if the nested runs of both models
-  met their convergence verdict and the factor is graded at least *positive*: an evidence from runs that disagree
-  has no trustworthy error, and a smaller or within-error factor is no choice.
+* **Do a model's nested runs agree on its evidence?** (:func:`evidence_consistent`) at least
+  :data:`EVIDENCE_MIN_RUNS` runs, each finished (not capped) and reaching the least-squares peak, and the scatter of
+  their :math:`\log\hat Z_k` consistent with the errors each run estimates for itself: :math:`\chi^2 = \sum_k
+  (\log\hat Z_k - \overline{\log Z})^2/\sigma_k^2` on :math:`n - 1` degrees of freedom with :math:`p \ge`
+  :data:`EVIDENCE_P` (Higson et al. 2018, doi:10.1093/mnras/sty1185: run-to-run scatter against each run's own
+  error). This is the engine's evidence criterion
+  (:class:`~bayestissue.inference.evidence.NestedReport`) without its absolute range below 0.2 nats: a Bayes factor
+  needs an error it can trust, not a small one, since the error enters its grade.
+* **Does the evidence choose the study's model?** (:func:`evidence_decides`) only if both models' runs agree on
+  their evidence (above) and the factor is graded at least *positive*: an evidence from runs that disagree has no
+  trustworthy error, and a smaller or within-error factor is no choice. The runs' posteriors need not have
+  converged for this (their R-hat and quantiles are reported beside the factor): the factor is a property of the
+  two evidences alone.
 """
 
 from __future__ import annotations
@@ -51,6 +61,9 @@ from bayestissue.inference.summary import PRIOR_DOMINATED_CONTRACTION
 
 __all__ = [
     "DECISIVE_GRADES",
+    "EVIDENCE_MIN_RUNS",
+    "EVIDENCE_P",
+    "evidence_consistent",
     "evidence_decides",
     "BAYES_ERROR_SIGMAS",
     "BAYES_POSITIVE",
@@ -124,6 +137,11 @@ BAYES_STRONG = 3.0
 BAYES_VERY_STRONG = 5.0
 #: ... and a factor smaller than this many of its own standard errors (the runs' scatter) is not a preference.
 BAYES_ERROR_SIGMAS = 2.0
+#: A model's runs agree on its evidence if their log Z scatter against their own errors has p at least this (the
+#: engine's level, :attr:`~bayestissue.inference.evidence.NestedReport.p_min`), from at least this many runs (the
+#: engine's minimum: fewer cannot show a scatter).
+EVIDENCE_P = 0.01
+EVIDENCE_MIN_RUNS = 4
 CAUSES = {1: "fibre law", 2: "fibre angle", 3: "specimen stiffness"}
 #: The cause models the controls fit, by key: the causes each one includes.
 CAUSE_MODELS = {"1": (1,), "2": (2,), "3": (3,), "1+2": (1, 2), "1+3": (1, 3), "2+3": (2, 3)}
@@ -324,7 +342,14 @@ def evidence_strength(log_bayes: float, error: float) -> str:
 DECISIVE_GRADES = ("positive", "strong", "very strong")
 
 
-def evidence_decides(log_bayes: float, error: float, converged: bool) -> bool:
-    """Whether a log Bayes factor (either sign) with standard error ``error`` chooses between two models whose
-    nested runs ``converged`` (both; module docstring)."""
-    return bool(converged and evidence_strength(abs(log_bayes), error) in DECISIVE_GRADES)
+def evidence_consistent(scatter_p: float, runs_ok) -> bool:
+    """Whether one model's nested runs agree on its evidence (module docstring): ``scatter_p`` the p-value of their
+    log Z scatter against their own errors, ``runs_ok`` per run whether it finished and reached the peak."""
+    runs_ok = list(runs_ok)
+    return bool(len(runs_ok) >= EVIDENCE_MIN_RUNS and all(runs_ok) and scatter_p >= EVIDENCE_P)
+
+
+def evidence_decides(log_bayes: float, error: float, consistent: bool) -> bool:
+    """Whether a log Bayes factor (either sign) with standard error ``error`` chooses between two models whose runs
+    are ``consistent`` (both, :func:`evidence_consistent`; module docstring)."""
+    return bool(consistent and evidence_strength(abs(log_bayes), error) in DECISIVE_GRADES)

@@ -1,15 +1,21 @@
 """The report's lines on the study's model: per data set, the log Bayes factor of the mirror model over the paper's 11
 parameters (graded by :func:`~bayestissue.analyses.verdicts.evidence_strength`, a choice only by
-:func:`~bayestissue.analyses.verdicts.evidence_decides`), and the 11-parameter posterior beside Table 1."""
+:func:`~bayestissue.analyses.verdicts.evidence_decides` from runs that agree on each evidence,
+:func:`~bayestissue.analyses.verdicts.evidence_consistent`), and the 11-parameter posterior beside Table 1."""
 
 from __future__ import annotations
 
+from bayestissue.analyses.box_width import FACTOR
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord
 from bayestissue.analyses.records import IdentifiabilityRecord
-from bayestissue.analyses.verdicts import evidence_decides, evidence_strength
+from bayestissue.analyses.verdicts import EVIDENCE_MIN_RUNS, EVIDENCE_P, evidence_decides, evidence_strength
 from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS
 
-__all__ = ["model_choice_context"]
+__all__ = ["EDGE_SHARE", "model_choice_context"]
+
+#: a bound is listed as holding posterior mass if its outermost decade holds at least this share (a flat marginal
+#: over a 6-decade box holds 0.17)
+EDGE_SHARE = 0.05
 
 
 def _rows(case: DataChoice, I: IdentifiabilityRecord) -> list[dict]:
@@ -27,10 +33,19 @@ def _rows(case: DataChoice, I: IdentifiabilityRecord) -> list[dict]:
     return rows
 
 
+def _edges(e) -> list[str]:
+    """The bounds of ``e``'s log boxes holding at least :data:`EDGE_SHARE` of its posterior in their outermost
+    ``ln factor`` (where widening can add evidence the volume term does not count)."""
+    if e.box is None:
+        return []
+    return [f"{n} {side} {v:.2f}" for n, sh in zip(e.box.names, e.box.edge_share, strict=True)
+            for side, v in zip(("low", "high"), sh, strict=True) if v >= EDGE_SHARE]  # fmt: skip
+
+
 def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None) -> dict:
     m, f = case.models["mirror"], case.models["full"]
     log_b, err = case.log_bayes()
-    converged = m.converged and f.converged
+    consistent = m.runs_agree and f.runs_agree
     return {
         "c": case,
         "mirror": m,
@@ -39,10 +54,12 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
         "err": err,
         "favours": "mirror" if log_b > 0 else "full",
         "grade": evidence_strength(abs(log_b), err),
-        "decides": evidence_decides(log_b, err, converged),
-        "converged": converged,
+        "decides": evidence_decides(log_b, err, consistent),
+        "consistent": consistent,
         "stale": None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash],
         "rows": _rows(case, I),
+        "moves": case.log_bayes_moves(),
+        "edges": {k: _edges(e) for k, e in case.models.items()},
     }
 
 
@@ -54,4 +71,5 @@ def model_choice_context(
     if rec is None:
         return None
     now = now or {}
-    return {"record": rec, "cases": [_case(c, I, now.get(d)) for d, c in rec.cases.items()]}
+    return {"record": rec, "cases": [_case(c, I, now.get(d)) for d, c in rec.cases.items()],
+            "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR}  # fmt: skip

@@ -55,19 +55,27 @@ def test_the_hash_follows_the_data_and_the_settings(tmp_path):
 
 def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
     """model_evidence on a stand-in sample: runs in order, merged values, quantiles mapped by the prior's to_unit."""
-    runs = [SimpleNamespace(log_z=z, log_z_err=0.1, n_like=100 + k, time_s=1.0, finished=True)
+    points = np.array([[0.5, 2.0], [500.0, 3.0]])  # the first inside the narrowed box [0.1, 100] of "a", the second not
+    runs = [SimpleNamespace(log_z=z, log_z_err=0.1, n_like=100 + k, time_s=1.0, finished=True, points=points,
+                            log_w=np.log([0.25, 0.75]), bootstrap_weights=None)
             for k, z in enumerate((10.0, 10.4))]  # fmt: skip
-    params = SimpleNamespace(to_unit=lambda x: np.asarray(x) / 10.0)
+    specs = [SimpleNamespace(name="a", prior="loguniform", lower=0.01, upper=1000.0),
+             SimpleNamespace(name="b", prior="uniform", lower=0.0, upper=10.0)]  # fmt: skip
+    params = SimpleNamespace(to_unit=lambda x: np.asarray(x) / 10.0, sampled=specs)
     sample = SimpleNamespace(runs=runs, names=("a", "b"), log_z=10.2, log_z_err=0.2,
                              problem=SimpleNamespace(parameters=params))  # fmt: skip
     q = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
     report = SimpleNamespace(converged=False, verdict=lambda: "NOT CONVERGED: test", rhat=np.array([1.2, np.nan]),
-                             quantiles=lambda: q, quantile_errors=lambda: q / 100,
-                             q_runs=np.stack([q, q + 1]))  # fmt: skip
+                             quantiles=lambda: q, quantile_errors=lambda: q / 100, log_z_p=0.0047,
+                             short_of_peak=np.array([False, True]), q_runs=np.stack([q, q + 1]))  # fmt: skip
     opts = SimpleNamespace(sampler="ultranest", n_live=50, slice_steps=None)
     e = MC.model_evidence("full", sample, report, opts, 3.0, "abc")
     assert e.numbers_hash == "abc" and e.log_z == [10.0, 10.4] and e.calls == [100, 101] and e.merged == (10.2, 0.2)
     assert e.rhat_max == 1.2 and e.quantile("b") == [4.0, 5.0, 6.0]
+    assert e.log_z_p == 0.0047 and e.peak_reached == [True, False] and not e.runs_agree
+    assert e.box.names == ["a"] and e.box.narrowed[0] == pytest.approx(np.log(5 / 3) + np.log(0.25))
+    four = dataclasses.replace(e, finished=[True] * 4, peak_reached=[True] * 4)
+    assert four.runs_agree is False and dataclasses.replace(four, log_z_p=0.5).runs_agree
     assert e.unit_quantiles == (q / 10).tolist() and e.run_unit_quantiles[1] == ((q + 1) / 10).tolist()
 
 

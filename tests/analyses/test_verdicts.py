@@ -179,9 +179,21 @@ def test_evidence_strength_at_its_thresholds(threshold, below, at_or_above):
     assert V.evidence_strength(threshold + 1e-9, err) == at_or_above
 
 
-def test_the_evidence_decides_only_from_converged_runs_and_a_positive_grade():
+def test_runs_agree_on_the_evidence_from_enough_finished_runs_at_the_peak_with_a_consistent_scatter():
+    """At the scatter's p threshold they agree, just below it not; nor with fewer runs than the minimum, a capped
+    run, or a run that missed the peak."""
+    ok = [True] * V.EVIDENCE_MIN_RUNS
+    assert V.evidence_consistent(V.EVIDENCE_P, ok)
+    assert not V.evidence_consistent(V.EVIDENCE_P * (1 - 1e-9), ok)
+    assert not V.evidence_consistent(0.9, ok[1:])
+    assert not V.evidence_consistent(0.9, [False] + ok[1:])
+    assert V.evidence_consistent(0.9, ok + [True])
+    assert not V.evidence_consistent(float("nan"), ok)
+
+
+def test_the_evidence_decides_only_from_consistent_runs_and_a_positive_grade():
     """1 nat (positive) with a small error decides either way round; just below 1 nat, within two errors, or from
-    runs that did not converge, it does not."""
+    runs that disagree on the evidence, it does not."""
     assert V.evidence_decides(V.BAYES_POSITIVE, 0.01, True)
     assert V.evidence_decides(-V.BAYES_POSITIVE, 0.01, True)
     assert not V.evidence_decides(V.BAYES_POSITIVE - 1e-9, 0.01, True)

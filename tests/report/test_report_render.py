@@ -168,17 +168,64 @@ def test_the_rate_answer_counts_the_truths_drawn_from_t1(records):
     assert "its strength (gamma2) in none, its time scale (beta2) in none, of 2 truths" in row
 
 
-def test_the_model_choice_follows_the_runs_verdicts_and_the_code(records):
-    """The evidence chooses the study's model only from converged runs and a positive factor; the report says when
-    the committed record belongs to other code (the fixture's hashes are deliberately not a code's)."""
+def test_the_box_width_table_gives_how_ln_b_moves_and_which_bounds_hold_mass(records):
+    """Without boxes (the fixture) no table; with them, the differences of the two models' shifts, and the bounds
+    holding at least EDGE_SHARE of a posterior."""
+    from bayestissue.analyses.box_width import BoxShift
+    from bayestissue.report.model_choice import EDGE_SHARE
+
+    assert "How ln B moves" not in render_report(records)
+    rec = records.model_choice
+    case = rec.cases["T1"]
+
+    def box(narrowed, volume, flat, edge):
+        return BoxShift(
+            factor=10.0,
+            names=["mu", "ginf1"],
+            narrowed_runs=[narrowed] * 4,
+            narrowed_errs=[0.1] * 4,
+            narrowed=(narrowed, 0.3),
+            widened_volume=volume,
+            edge_share=edge,
+            widened_flat=flat,
+        )
+
+    boxes = {
+        "mirror": box(-1.0, -0.5, -0.2, [(0.3, 0.0), (0.01, 0.0)]),
+        "full": box(-2.5, -0.9, -0.4, [(EDGE_SHARE, 0.0), (0.0, 0.2)]),
+    }
+    models = {k: dataclasses.replace(e, box=boxes[k]) for k, e in case.models.items()}
+    changed = dataclasses.replace(rec, cases={"T1": dataclasses.replace(case, models=models)})
+    text = render_report(dataclasses.replace(records, model_choice=changed))
+    row = next(line for line in text.splitlines() if line.startswith("| T1 | ") and "+1.50 +- 0.42" in line)
+    assert "| +1.50 +- 0.42 | " + ", ".join(["-1.00"] * 4) + "; " + ", ".join(["-2.50"] * 4) in row
+    assert "| +0.40 | +0.20 | mu low 0.30; mu low 0.05, ginf1 high 0.20 |" in row
+
+
+def test_the_model_choice_follows_the_runs_agreement_on_the_evidence_and_the_code(records):
+    """The evidence chooses the study's model only from runs that agree on each evidence and a positive factor
+    (whatever the posterior verdict); the report says when the committed record belongs to other code (the fixture's
+    hashes are deliberately not a code's)."""
     rec = records.model_choice
     assert {e.numbers_hash for c in rec.cases.values() for e in c.models.values()} == {"fixture-not-code"}
 
-    def render(converged, shift=0.0, now=None):
+    def render(agree, shift=0.0, now=None):
         case = rec.cases["T1"]
         m, f = case.models["mirror"], case.models["full"]
-        models = {"mirror": dataclasses.replace(m, converged=converged, merged=(f.merged[0] + shift, 0.1)),
-                  "full": dataclasses.replace(f, converged=converged, merged=(f.merged[0], 0.1))}  # fmt: skip
+
+        def runs(e, z):
+            return dataclasses.replace(
+                e,
+                converged=False,
+                merged=(z, 0.1),
+                log_z=[z] * 4,
+                log_z_err=[0.2] * 4,
+                finished=[True] * 4,
+                peak_reached=[True] * 4,
+                log_z_p=0.5 if agree else 0.001,
+            )
+
+        models = {"mirror": runs(m, f.merged[0] + shift), "full": runs(f, f.merged[0])}
         changed = dataclasses.replace(rec, cases={"T1": dataclasses.replace(case, models=models)})
         now = {"T1": {"mirror": now or "0" * 16, "full": "fixture-not-code"}}
         text = render_report(dataclasses.replace(records, model_choice=changed, model_choice_now=now))
@@ -190,8 +237,11 @@ def test_the_model_choice_follows_the_runs_verdicts_and_the_code(records):
     assert "**stale**: the mirror model's runs belong to other code" in text
     row, _ = render(True, shift=-4.0)
     assert "| T1: **full** | T1: ln B mirror over full -4.00 +- 0.14 (strong)" in row
+    assert "| agree (scatter p = 0.5) | NOT CONVERGED |" in text
     row, text = render(False, shift=2.0, now="fixture-not-code")
-    assert "| T1: not decided yet (the analyses use the mirror model) |" in row and "NOT CONVERGED" in row
-    assert "the current code's" in text and "did not meet their verdict" in text
+    assert "| T1: not decided yet (the analyses use the mirror model) |" in row
+    assert "runs agree on the evidence: mirror **no**, full **no**" in row
+    assert "the current code's" in text and "the runs of the mirror and full model disagree on its evidence" in text
+    assert "| **DISAGREE** (scatter p = 0.001) |" in text
     row, _ = render(True, shift=0.2)
     assert "not decided yet" in row and "(within error)" in row
