@@ -96,7 +96,7 @@ def box_shift(runs, specs, factor: float = FACTOR) -> BoxShift:
     width = {j: math.log(specs[j].upper / specs[j].lower) for j in log_cols}
     narrow = [j for j in log_cols if width[j] > 2 * lf]
     volume_narrow = sum(math.log(width[j] / (width[j] - 2 * lf)) for j in narrow)
-    values, errs = [], []
+    values, errs, xs, ws = [], [], [], []
     for r in runs:
         x, w = np.asarray(r.points, dtype=float), np.exp(np.asarray(r.log_w, dtype=float))
         inside = np.ones(len(w), dtype=bool)
@@ -105,8 +105,9 @@ def box_shift(runs, specs, factor: float = FACTOR) -> BoxShift:
         log_p, err = _log_share(inside, w, getattr(r, "bootstrap_weights", None))
         values.append(volume_narrow + log_p)
         errs.append(err)
-    x = np.concatenate([np.asarray(r.points, dtype=float) for r in runs])
-    w = np.concatenate([np.exp(np.asarray(r.log_w, dtype=float)) for r in runs])
+        xs.append(x)
+        ws.append(w)
+    x, w = np.concatenate(xs), np.concatenate(ws)
     w = w / w.sum()
     edge = [(float(w[x[:, j] < specs[j].lower * factor].sum()), float(w[x[:, j] > specs[j].upper / factor].sum()))
             for j in log_cols]  # fmt: skip

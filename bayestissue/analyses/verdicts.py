@@ -57,6 +57,7 @@ import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
 from bayestissue.identifiability import CHI2_1_95, tension
+from bayestissue.inference.evidence import NestedReport
 from bayestissue.inference.summary import PRIOR_DOMINATED_CONTRACTION
 
 __all__ = [
@@ -138,10 +139,10 @@ BAYES_VERY_STRONG = 5.0
 #: ... and a factor smaller than this many of its own standard errors (the runs' scatter) is not a preference.
 BAYES_ERROR_SIGMAS = 2.0
 #: A model's runs agree on its evidence if their log Z scatter against their own errors has p at least this (the
-#: engine's level, :attr:`~bayestissue.inference.evidence.NestedReport.p_min`), from at least this many runs (the
-#: engine's minimum: fewer cannot show a scatter).
-EVIDENCE_P = 0.01
-EVIDENCE_MIN_RUNS = 4
+#: engine's level, :attr:`~bayestissue.inference.evidence.NestedReport.p_min`, 0.01), from at least this many runs
+#: (the engine's minimum, 4: fewer cannot show a scatter).
+EVIDENCE_P = NestedReport.p_min
+EVIDENCE_MIN_RUNS = NestedReport.min_runs
 CAUSES = {1: "fibre law", 2: "fibre angle", 3: "specimen stiffness"}
 #: The cause models the controls fit, by key: the causes each one includes.
 CAUSE_MODELS = {"1": (1,), "2": (2,), "3": (3,), "1+2": (1, 2), "1+3": (1, 3), "2+3": (2, 3)}
