@@ -8,13 +8,15 @@ The problem: the first ``--n-obs`` observation times of the T1 creep test (its s
 mirror model's fibre law (family 3 tied to family 2) with ``mu``, ``ginf2``, ``beta2`` sampled on log-uniform boxes
 narrower than Table 1's (so that every prior draw is a well-posed creep curve; the boxes are printed), every other
 parameter at Table 1's T1 value, known noise sd. One nested run per replication (``--live`` live points,
-``--neff`` importance ESS, one network per bound); replications in parallel processes.
+``--neff`` importance ESS, one network per bound; or with ``--sampler ultranest`` UltraNest's classic nested
+sampling with its population slice sampler, ``--neff`` its minimum ESS); replications in parallel processes.
 
 Printed (``sbc_ranks.py``): per parameter a chi-square test of the ranks in 10 bins (9 dof) and a KS test of the
 randomised fractional ranks, with p-values; the rank histograms go to ``--out`` (PNG) when given. No pass/fail: read
 the p-values (with three parameters, one p below 0.01 by chance has probability about 3 %).
 
-    python benchmarks/sbc_nested.py [--reps 100] [--n-obs 60] [--draws 99] [--live 200] [--neff 400] [--out sbc.png]
+    python benchmarks/sbc_nested.py [--sampler nautilus|ultranest] [--reps 100] [--n-obs 60] [--draws 99] [--live 200]
+        [--neff 400] [--out sbc.png]
 """
 
 from __future__ import annotations
@@ -69,7 +71,7 @@ def _replication(r, args):
     )
     problem = build_problem([exp], config)
     t0 = time.perf_counter()
-    opts = NestedOptions(n_live=args.live, n_eff=args.neff, n_runs=1, n_networks=1, n_processes=1)
+    opts = NestedOptions(n_live=args.live, n_eff=args.neff, n_runs=1, n_networks=1, n_processes=1, sampler=args.sampler)
     sample = sample_nested(problem, options=opts, rng=int(rng.integers(2**31 - 1)))
     draws = sample.flat()
     keep = draws[np.linspace(0, draws.shape[0] - 1, args.draws).astype(int)]
@@ -79,6 +81,7 @@ def _replication(r, args):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sampler", choices=("nautilus", "ultranest"), default="nautilus")
     ap.add_argument("--reps", type=int, default=100)
     ap.add_argument("--n-obs", type=int, default=60, help="first observations of T1 kept (3 s apart)")
     ap.add_argument("--draws", type=int, default=99, help="posterior draws ranked against (L)")
@@ -88,7 +91,10 @@ def main(argv=None) -> int:
     ap.add_argument("--processes", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", help="PNG of the rank histograms")
     args = ap.parse_args(argv)
-    print(f"boxes (log-uniform): {SAMPLED}; noise sd {NOISE_SD} mm; {args.n_obs} observations; L = {args.draws}")
+    print(
+        f"{args.sampler}, {args.live} live points; boxes (log-uniform): {SAMPLED}; noise sd {NOISE_SD} mm; "
+        f"{args.n_obs} observations; L = {args.draws}"
+    )
     t0 = time.perf_counter()
     ranks, times, skipped = [], [], 0
     ctx = mp.get_context("fork")
@@ -111,7 +117,7 @@ def main(argv=None) -> int:
     for line in rank_lines(tests):
         print(line)
     if args.out:
-        title = f"simulation-based calibration of the nested engine, {n} replications (short T1 creep)"
+        title = f"simulation-based calibration of the nested engine ({args.sampler}), {n} replications (short T1 creep)"
         rank_figure([(ranks, tests, f"{n} runs")], args.draws, list(SAMPLED), title, args.out)
     return 0
 

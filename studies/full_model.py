@@ -1,15 +1,16 @@
-"""The paper's 11 parameters against the mirror model on T1 and T2, by the evidence (issue 36; analyses.model_choice).
+"""The paper's 11 parameters against the mirror model on T1, T2 and both jointly, by the evidence (issue 36;
+analyses.model_choice); on the joint data set also shared parameters against a T2 stiffness scale.
 
-``--full`` runs both models through the nested engine on each data set (4 runs each; the runs as dask tasks on a
-LocalCluster, 47-71 minutes of both cores per data set here) and writes into --out ``model_choice_record.json``
+``--full`` runs each data set's models through the nested engine (4 runs each; the runs as dask tasks on a
+LocalCluster, 47-71 minutes of both cores per single test here) and writes into --out ``model_choice_record.json``
 (read by the report: the Bayes factors and the 11-parameter posteriors beside Table 1), ``model_choice_<data>.png``
-and ``model_choice_<data>.md``; the record after every data set, and ``--data`` reruns one data set and keeps the
-other's case. A model whose committed runs match the current code, data and its settings is kept, not rerun. The
-default study computes nothing: it reads the committed record and says whether each model's runs still belong to the
-current code (:func:`~bayestissue.analyses.model_choice.current_hash`). ``--quick`` is a capped smoke run of the same
-code on T1 into its own folder.
+and ``model_choice_<data>.md``; the record after every data set, and ``--data`` reruns the data sets it names and
+keeps the others' cases. A model whose committed runs match the current code, data and its settings is kept, not
+rerun. The default study computes nothing: it reads the committed record and says whether each model's runs still
+belong to the current code (:func:`~bayestissue.analyses.model_choice.current_hash`). ``--quick`` is a capped smoke
+run of the same code on T1 into its own folder.
 
-    python studies/full_model.py [--quick | --full] [--data T1 T2] [--out DIR]
+    python studies/full_model.py [--quick | --full] [--data T1 T2 joint] [--out DIR]
 """
 
 from __future__ import annotations
@@ -22,14 +23,17 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import matplotlib  # noqa: E402
+import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")
 
 from bayestissue.analyses.box_width import FACTOR  # noqa: E402
 from bayestissue.analyses.model_choice import (  # noqa: E402
+    CANDIDATES,
     DATASETS,
     SETTINGS,
     STAGE_SEED,
+    TESTS,
     DataChoice,
     ModelChoiceRecord,
     current_hash,
@@ -37,16 +41,18 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
     model_evidence,
 )
 from bayestissue.analyses.records import FILES  # noqa: E402
-from bayestissue.inference import NestedOptions, sample_nested  # noqa: E402
+from bayestissue.inference import NestedOptions, fit_least_squares, fit_multistart, sample_nested  # noqa: E402
 from bayestissue.inference.evidence import assess_nested  # noqa: E402
+from bayestissue.inference.sampling.nested import peak_log_likelihood  # noqa: E402
 from bayestissue.io.records import read_record, write_record  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
-from bayestissue.paper import MIRROR_TIES  # noqa: E402
 from bayestissue.plotting.evidence import plot_model_choice  # noqa: E402
 from bayestissue.workflows import load_config  # noqa: E402
 from bayestissue.workflows.problem import build_problem  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
+#: Random least-squares starts besides the paper's, for the peak check's reference (``fit``'s default is 8).
+LS_STARTS = {"quick": 0, "full": 8}
 
 
 def _progress(name: str, seconds: float = 60.0):
@@ -61,15 +67,37 @@ def _progress(name: str, seconds: float = 60.0):
     return report
 
 
+def _problem(data: str, model: str):
+    """The calibration problem of ``model`` on ``data``'s bundled tests
+    (:data:`~bayestissue.analyses.model_choice.CANDIDATES`, :data:`~bayestissue.analyses.model_choice.TESTS`): the
+    default box prior, one noise sd per test."""
+    experiments = [load_experiment(ROOT / "data" / f"{test}.toml") for test in TESTS[data]]
+    return build_problem(experiments, load_config(None, **CANDIDATES[data][model]))
+
+
+def _peak(problem, options: NestedOptions, seed: int, n_starts: int) -> float:
+    """The peak check's reference (:func:`~bayestissue.inference.evidence.assess_nested`): the log-likelihood under
+    the runs' likelihood at the best least-squares optimum (the paper's start and ``n_starts`` random ones, as
+    ``fit`` does), with its plug-in noise sd."""
+    t0 = time.perf_counter()
+    fits = [fit_least_squares(problem)]
+    if n_starts:
+        fits.append(fit_multistart(problem, n_starts=n_starts, rng=np.random.default_rng(seed), space="unit").best)
+    best = min(fits, key=lambda r: r.cost)
+    peak = peak_log_likelihood(problem, options, problem.nuisance_estimate(best.x))
+    print(f"[full model] least squares: cost {best.cost:.6g}, log-likelihood {peak:.2f} "
+          f"({time.perf_counter() - t0:.0f} s)", flush=True)  # fmt: skip
+    return peak
+
+
 def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataChoice:
     """Both models on ``data``. Under --full, a model whose runs in ``old`` match the current code, data and settings
     (:func:`~bayestissue.analyses.model_choice.current_hash`) is kept as it is, and checkpoints are keyed by that
     hash: a killed --full run resumes only runs that match it."""
     settings = SETTINGS[mode]
-    exp = load_experiment(ROOT / "data" / f"{data}.toml")
     seed = STAGE_SEED + 10 * DATASETS.index(data)
     models = {}
-    for k, (model, ties) in enumerate((("mirror", dict(MIRROR_TIES)), ("full", None))):
+    for k, model in enumerate(CANDIDATES[data]):
         key = current_hash(mode, ROOT / "data", data, model)
         kept = old.models.get(model) if old is not None and mode == "full" else None
         if kept is not None and kept.numbers_hash == key:
@@ -77,7 +105,7 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataC
             models[model] = kept
             continue
         cache = ROOT / ".cache" / "model_choice" / key
-        problem = build_problem([exp], load_config(None, tied=ties))
+        problem = _problem(data, model)
         opts = NestedOptions(**settings[model], scheduler=settings["scheduler"], n_processes=n_workers,
                              report_every=50_000)  # fmt: skip
         print(f"[full model] {data}, {model} model ({problem.ndim} sampled): {opts.n_runs} {opts.sampler} runs of "
@@ -89,7 +117,7 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataC
         sample = sample_nested(problem, options=opts, checkpoint=cache, resume=mode == "full",
                                rng=seed + k, progress=_progress(f"{data} {model}"))  # fmt: skip
         wall = time.perf_counter() - t0
-        rep = assess_nested(sample)
+        rep = assess_nested(sample, reference_log_l=_peak(problem, opts, seed + k, LS_STARTS[mode]))
         models[model] = model_evidence(model, sample, rep, opts, wall, key)
         print(f"[full model] {data} {model}: log Z {sample.log_z:.3f} +- {sample.log_z_err:.3f}, {wall:.0f} s; "
               f"{rep.verdict()}", flush=True)  # fmt: skip
@@ -97,23 +125,26 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataC
 
 
 def _summary(case: DataChoice, mode: str) -> str:
-    lines = [f"# Mirror vs full model on {case.data} ({mode})", ""]
-    m, f = case.models["mirror"], case.models["full"]
-    log_b, err = case.log_bayes()
-    lines.append(f"log Bayes factor mirror over full: {log_b:.2f} +- {err:.2f}\n")
-    moves = case.log_bayes_moves()
-    if moves is not None:
-        lines.append(f"Every log box narrowed by {FACTOR:g} at each end: ln B {moves['narrowed'][0]:+.2f} +- "
-                     f"{moves['narrowed'][1]:.2f}; widened: volume terms {moves['widened_volume'][0]:+.2f}, flat "
-                     f"estimate {moves['widened_flat'][0]:+.2f} (analyses/box_width.py)\n")  # fmt: skip
-    for e in (m, f):
+    *first, last = case.models
+    lines = [f"# The {', '.join(first)} and {last} models on {case.data} ({mode})", ""]
+    for a, b in case.factors:
+        log_b, err = case.log_bayes(a, b)
+        lines.append(f"log Bayes factor {a} over {b}: {log_b:.2f} +- {err:.2f}\n")
+        moves = case.log_bayes_moves(a, b)
+        if moves is not None:
+            lines.append(f"Every log box narrowed by {FACTOR:g} at each end: ln B {moves['narrowed'][0]:+.2f} +- "
+                         f"{moves['narrowed'][1]:.2f}; widened: volume terms {moves['widened_volume'][0]:+.2f}, flat "
+                         f"estimate {moves['widened_flat'][0]:+.2f} (analyses/box_width.py)\n")  # fmt: skip
+    for e in case.models.values():
         lines.append(
             f"## {e.model} ({len(e.names)} sampled; {e.sampler}, {e.n_live} live points, {e.wall_s:.0f} s; "
             f"code and data {e.numbers_hash})\n"
         )
         agree = "agree" if e.runs_agree else "DISAGREE"
         lines.append(f"log Z {e.merged[0]:.3f} +- {e.merged[1]:.3f}; the runs {agree} on the evidence (scatter p = "
-                     f"{e.log_z_p:.2g}, finished {e.finished}, at the peak {e.peak_reached})\n")  # fmt: skip
+                     f"{e.log_z_p:.2g}, finished {e.finished}, at the peak {e.peak_reached}: best log-likelihood "
+                     f"{', '.join(f'{v:.2f}' for v in e.max_log_l)} against the least-squares optimum's "
+                     f"{e.reference_log_l:.2f} less d/2 = {len(e.names) / 2:g})\n")  # fmt: skip
         lines.append(f"posterior: {e.verdict}\n")
         lines.append("| run | log Z | calls | s |\n|---|---|---|---|")
         for k, (z, ze, c, t) in enumerate(zip(e.log_z, e.log_z_err, e.calls, e.time_s, strict=True)):
@@ -156,7 +187,7 @@ def main(argv=None) -> int:
     mode.add_argument("--quick", action="store_true", help="capped smoke run")
     mode.add_argument("--full", action="store_true", help="compute the record (47-71 min of both cores a test)")
     ap.add_argument("--out", type=Path, default=ROOT / "figures")
-    ap.add_argument("--data", nargs="+", choices=DATASETS, help="data sets to run (default: T1 and T2; --quick T1)")
+    ap.add_argument("--data", nargs="+", choices=DATASETS, help="data sets to run (default: all; --quick T1)")
     args = ap.parse_args(argv)
     path = args.out / FILES[ModelChoiceRecord]
     if not (args.quick or args.full):

@@ -12,6 +12,10 @@ each :math:`\\sigma` the merged runs' error (the larger of their own errors comb
 :math:`\\sqrt n`, :attr:`~bayestissue.inference.sampling.NestedSample.log_z_err`). Graded by
 :func:`~bayestissue.analyses.verdicts.evidence_strength` (Kass & Raftery 1995).
 
+On the joint data set (T1 and T2 as one tissue, :data:`TESTS`) a third model asks whether the two specimens differ
+in stiffness alone: the mirror model with one scale :math:`s` multiplying every modulus of T2 (:data:`CANDIDATES`),
+reported as :math:`\\ln B` of that model over shared parameters (:data:`FACTORS`).
+
 The 11-parameter posterior is long work (15-23 CPU-minutes per UltraNest run of 400 live points on this machine),
 so it runs under ``--full`` only and its record is committed; the default study reads it back. Each model's runs carry
 :func:`numbers_hash`, a hash of the code, data and settings their numbers depend on, so a reader can tell whether the
@@ -30,9 +34,13 @@ import numpy as np
 
 from bayestissue.analyses.box_width import BoxShift, box_shift
 from bayestissue.analyses.verdicts import evidence_consistent
+from bayestissue.paper import MIRROR_TIES
 
 __all__ = [
     "DATASETS",
+    "FACTORS",
+    "CANDIDATES",
+    "TESTS",
     "SETTINGS",
     "STAGE_SEED",
     "DataChoice",
@@ -47,11 +55,28 @@ __all__ = [
 #: The parts of the package the likelihood and the samplers are made of (a change elsewhere, e.g. in the report,
 #: leaves the numbers as they are).
 SOURCES = ("mechanics", "inference", "workflows", "paper.py", "_validation.py")
-#: The stage's seed: data set ``j`` of :data:`DATASETS`, model ``k`` (mirror 0, full 1) draws its runs' seeds from
-#: ``STAGE_SEED + 10 j + k``.
+#: The stage's seed: data set ``j`` of :data:`DATASETS`, model ``k`` (its place in the data set's :data:`CANDIDATES`:
+#: mirror 0, full 1, scale 2) draws its runs' seeds from ``STAGE_SEED + 10 j + k``.
 STAGE_SEED = 20261128
-#: The data sets the stage can run, in seed order.
-DATASETS = ("T1", "T2")
+#: The data sets the stage can run, in seed order, and the bundled tests each one fits (``joint``: both tests, one
+#: material, one noise sd per test).
+DATASETS = ("T1", "T2", "joint")
+TESTS = {"T1": ("T1",), "T2": ("T2",), "joint": ("T1", "T2")}
+#: Each data set's models in seed order, by name -> configuration overrides
+#: (:func:`~bayestissue.workflows.load_config`): ``mirror`` ties fibre family 3 to family 2, ``full`` is the paper's
+#: 11 parameters, and ``scale`` (joint data set only) is the mirror model with a stiffness scale of T2's specimen (one
+#: specimen-level parameter multiplying every modulus of T2, log-uniform on [0.05, 20];
+#: :class:`~bayestissue.workflows.forward.SpecimenForward`): the same tissue measured on two specimens of different
+#: stiffness.
+CANDIDATES = {
+    "T1": {"mirror": {"tied": dict(MIRROR_TIES)}, "full": {}},
+    "T2": {"mirror": {"tied": dict(MIRROR_TIES)}, "full": {}},
+    "joint": {"mirror": {"tied": dict(MIRROR_TIES)}, "full": {},
+              "scale": {"tied": dict(MIRROR_TIES), "specimen": ("scale", "T2")}},
+}  # fmt: skip
+#: The log Bayes factors each data set reports, (numerator, denominator): the mirror model over the paper's, and on
+#: the joint data set the T2 stiffness scale over shared parameters.
+FACTORS = {"T1": (("mirror", "full"),), "T2": (("mirror", "full"),), "joint": (("mirror", "full"), ("scale", "mirror"))}
 #: Nested options per mode and model (:class:`~bayestissue.inference.sampling.NestedOptions`) and where the runs go.
 #: ``--full``: 4 runs per model (the verdict's minimum), both models by UltraNest's population slice sampler (2 x d
 #: slice steps per new point) with 400 live points, so that the two evidences are estimated the same way. The mirror
@@ -69,11 +94,14 @@ SETTINGS = {
                    "max_evaluations": 6000},
         "full": {"sampler": "ultranest", "n_live": 50, "n_eff": 50, "n_runs": 2, "population": 50,
                  "max_evaluations": 6000},
+        "scale": {"sampler": "ultranest", "n_live": 50, "n_eff": 50, "n_runs": 2, "population": 50,
+                  "max_evaluations": 6000},
     },
     "full": {
         "scheduler": "local",
         "mirror": {"sampler": "ultranest", "n_live": 400, "n_eff": 500, "n_runs": 4, "population": 100},
         "full": {"sampler": "ultranest", "n_live": 400, "n_eff": 500, "n_runs": 4, "population": 100},
+        "scale": {"sampler": "ultranest", "n_live": 400, "n_eff": 500, "n_runs": 4, "population": 100},
     },
 }  # fmt: skip
 
@@ -97,7 +125,7 @@ def current_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
     """:func:`numbers_hash` of the current code, the data set ``data`` in ``data_dir``, the seed and ``mode``'s
     settings for ``model`` (each model its own: a change of one model's settings leaves the other's runs current;
     where the runs went is left out, since a run gives the same numbers wherever it ran, docs/cluster.md)."""
-    files = [data_dir / f"{data}.toml", data_dir / f"{data}.csv"]
+    files = [data_dir / f"{test}.{ext}" for test in TESTS[data] for ext in ("toml", "csv")]
     return numbers_hash(files, repr((STAGE_SEED, model, SETTINGS[mode][model])))
 
 
@@ -110,8 +138,10 @@ def current_hashes(rec: ModelChoiceRecord, data_dir: Path) -> dict[str, dict[str
 class ModelEvidence:
     """One model's nested runs on one data set.
 
-    Per run: ``log_z`` and its own error, likelihood calls, seconds, finished (not capped), ``peak_reached`` (its
-    largest log-likelihood within d/2 of the least-squares optimum's). ``log_z_p``: the p-value of the runs' log Z
+    Per run: ``log_z`` and its own error, likelihood calls, seconds, finished (not capped), ``max_log_l`` (its
+    largest log-likelihood) and ``peak_reached`` (that within d/2 of ``reference_log_l``, the least-squares
+    optimum's log-likelihood under the runs' likelihood: the engine's peak check,
+    :attr:`~bayestissue.inference.evidence.NestedReport.short_of_peak`). ``log_z_p``: the p-value of the runs' log Z
     scatter against their own errors (:attr:`~bayestissue.inference.evidence.NestedReport.log_z_p`). ``merged`` is
     the merged runs' (log Z, error). ``quantiles[j]`` the 5 / 50 / 95 % quantiles of sampled parameter
     ``names[j]`` (natural units, exchangeable families folded) and ``quantile_errors[j]`` their Monte Carlo errors
@@ -133,6 +163,8 @@ class ModelEvidence:
     calls: list[int]
     time_s: list[float]
     finished: list[bool]
+    max_log_l: list[float]
+    reference_log_l: float
     peak_reached: list[bool]
     log_z_p: float
     merged: tuple[float, float]
@@ -159,24 +191,29 @@ class ModelEvidence:
 
 @dataclass(frozen=True)
 class DataChoice:
-    """Both models on one data set: ``models`` by name (``"mirror"``, ``"full"``), each with the hash of what computed
-    it; ``seed`` the first model's (the next model's is one more)."""
+    """The models of one data set (:data:`CANDIDATES`): ``models`` by name, each with the hash of what computed it;
+    ``seed`` the first model's (the next model's is one more)."""
 
     data: str
     seed: int
     models: dict[str, ModelEvidence]
 
-    def log_bayes(self) -> tuple[float, float]:
-        """:math:`\\ln B` of the mirror model over the full one and :math:`\\sigma_{\\ln B}` (module docstring)."""
-        m, f = self.models["mirror"].merged, self.models["full"].merged
+    @property
+    def factors(self) -> tuple[tuple[str, str], ...]:
+        """The (numerator, denominator) pairs this data set reports (:data:`FACTORS`)."""
+        return FACTORS[self.data]
+
+    def log_bayes(self, a: str = "mirror", b: str = "full") -> tuple[float, float]:
+        """:math:`\\ln B` of model ``a`` over model ``b`` and :math:`\\sigma_{\\ln B}` (module docstring)."""
+        m, f = self.models[a].merged, self.models[b].merged
         return float(m[0] - f[0]), float(np.hypot(m[1], f[1]))
 
-    def log_bayes_moves(self) -> dict[str, tuple[float, float]] | None:
-        """How :math:`\\ln B` moves (value, error) when every log box is narrowed (``"narrowed"``) or widened
-        (``"widened_volume"``: the volume terms alone; ``"widened_flat"``: the flat estimate; no Monte Carlo error)
-        by :data:`~bayestissue.analyses.box_width.FACTOR` (:mod:`~bayestissue.analyses.box_width`); None unless
-        both models carry their :attr:`ModelEvidence.box`."""
-        m, f = self.models["mirror"].box, self.models["full"].box
+    def log_bayes_moves(self, a: str = "mirror", b: str = "full") -> dict[str, tuple[float, float]] | None:
+        """How :math:`\\ln B` of ``a`` over ``b`` moves (value, error) when every log box is narrowed
+        (``"narrowed"``) or widened (``"widened_volume"``: the volume terms alone; ``"widened_flat"``: the flat
+        estimate; no Monte Carlo error) by :data:`~bayestissue.analyses.box_width.FACTOR`
+        (:mod:`~bayestissue.analyses.box_width`); None unless both models carry their :attr:`ModelEvidence.box`."""
+        m, f = self.models[a].box, self.models[b].box
         if m is None or f is None:
             return None
         return {
@@ -188,11 +225,11 @@ class DataChoice:
 
 @dataclass(frozen=True)
 class ModelChoiceRecord:
-    """The full-model stage's record: one :class:`DataChoice` per data set run (``"T1"``, ``"T2"``); ``scheduler``
+    """The full-model stage's record: one :class:`DataChoice` per data set run (:data:`DATASETS`); ``scheduler``
     and ``n_workers`` where the runs went."""
 
     SCHEMA: ClassVar[str] = "bayestissue.model_choice"
-    VERSION: ClassVar[int] = 3
+    VERSION: ClassVar[int] = 4
     mode: str
     scheduler: str
     n_workers: int
@@ -201,7 +238,10 @@ class ModelChoiceRecord:
 
 def model_evidence(model: str, sample, report, options, wall_s: float, key: str) -> ModelEvidence:
     """The record of one model's :class:`~bayestissue.inference.sampling.NestedSample` and its
-    :class:`~bayestissue.inference.evidence.NestedReport`; ``key`` its :func:`current_hash`."""
+    :class:`~bayestissue.inference.evidence.NestedReport` (assessed against the least-squares optimum's
+    log-likelihood: without it the peak check cannot run); ``key`` its :func:`current_hash`."""
+    if report.reference_log_l is None:
+        raise ValueError("the report has no reference log-likelihood: assess_nested(..., reference_log_l=...)")
     runs = sample.runs
     to_unit = sample.problem.parameters.to_unit
     q = report.quantiles()
@@ -217,6 +257,8 @@ def model_evidence(model: str, sample, report, options, wall_s: float, key: str)
         calls=[r.n_like for r in runs],
         time_s=[r.time_s for r in runs],
         finished=[bool(r.finished) for r in runs],
+        max_log_l=[float(v) for v in report.max_log_l],
+        reference_log_l=float(report.reference_log_l),
         peak_reached=[not s for s in np.asarray(report.short_of_peak, dtype=bool).tolist()],
         log_z_p=float(report.log_z_p),
         merged=(sample.log_z, sample.log_z_err),

@@ -11,7 +11,7 @@ from bayestissue.plotting.style import FONT, tidy_axes
 __all__ = ["MODEL_COLOURS", "plot_model_choice"]
 
 #: One colour per model, the same in both panels.
-MODEL_COLOURS = {"mirror": "tab:blue", "full": "tab:orange"}
+MODEL_COLOURS = {"mirror": "tab:blue", "full": "tab:orange", "scale": "tab:green"}
 
 
 def _material(names) -> int:
@@ -26,23 +26,25 @@ def _evidence(ax, case) -> None:
         z, s = e.merged
         ax.axhspan(z - s, z + s, color=c, alpha=0.18, lw=0)
         ax.axhline(z, color=c, lw=1.2, label=f"{name}: merged {z:.2f} +- {s:.2f}")
-    ax.set_xticks(range(len(case.models)), [f"{n}\n({_material(e.names)} parameters + noise sd)"
+    ax.set_xticks(range(len(case.models)), [f"{n}\n{_material(e.names)} parameters\n+ noise sd"
                                            for n, e in case.models.items()])  # fmt: skip
     ax.set_ylabel("log evidence per run", fontsize=FONT["label"])
-    if {"mirror", "full"} <= case.models.keys():
-        log_b, err = case.log_bayes()
-        ax.set_title(f"ln B mirror over full = {log_b:.2f} +- {err:.2f}", fontsize=FONT["title"])
+    pairs = [(a, b) for a, b in case.factors if {a, b} <= case.models.keys()]
+    if pairs:
+        ax.set_title("\n".join(f"ln B {a} over {b} = {v:.2f} +- {s:.2f}" for a, b in pairs
+                               for v, s in [case.log_bayes(a, b)]), fontsize=FONT["title"])  # fmt: skip
     ax.margins(y=0.08)
     # below the axes: runs that lost the peak sit far below the others, so no corner of the panel is always free
     ax.legend(fontsize=FONT["legend"] - 1, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
 
 
 def _intervals(ax, case) -> None:
-    names = list(max(case.models.values(), key=lambda e: len(e.names)).names)
+    names = list(dict.fromkeys(n for e in sorted(case.models.values(), key=lambda e: -len(e.names)) for n in e.names))
     rows = {n: len(names) - 1 - i for i, n in enumerate(names)}
+    n_models = len(case.models)
     for j, (name, e) in enumerate(case.models.items()):
         c = MODEL_COLOURS.get(name, "0.4")
-        shift = 0.2 - 0.4 * j
+        shift = 0.2 - 0.4 * j if n_models <= 2 else 0.3 - 0.6 * j / (n_models - 1)
         for p, u in zip(e.names, e.unit_quantiles, strict=True):
             y = rows[p] + shift
             runs = [r[e.names.index(p)] for r in e.run_unit_quantiles]
@@ -56,7 +58,8 @@ def _intervals(ax, case) -> None:
     ax.set_xlim(0, 1)
     ax.set_xlabel("position in the prior box (log scale where log-uniform)", fontsize=FONT["label"])
     ax.set_title("90 % interval per run (thin) and merged (thick, | median)", fontsize=FONT["title"])
-    ax.legend(fontsize=FONT["legend"] - 1, loc="lower right")
+    # below the axes, like the evidence panel's: inside, it hid the lowest rows' intervals
+    ax.legend(fontsize=FONT["legend"] - 1, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=len(case.models))
 
 
 def plot_model_choice(case, mode: str, path):
@@ -66,8 +69,10 @@ def plot_model_choice(case, mode: str, path):
     _evidence(a, case)
     _intervals(b, case)
     tidy_axes(fig)
-    fig.suptitle(f"{case.data}: the mirror model against the paper's 11 parameters ({mode} run)",
-                 fontsize=FONT["title"] + 1)  # fmt: skip
+    what = "the mirror model against the paper's 11 parameters"
+    if "scale" in case.models:
+        what += ", and a T2 stiffness scale against shared parameters"
+    fig.suptitle(f"{case.data}: {what} ({mode} run)", fontsize=FONT["title"] + 1)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)

@@ -1,9 +1,12 @@
 """The report's lines on the study's model: per data set, the log Bayes factor of the mirror model over the paper's 11
-parameters (graded by :func:`~bayestissue.analyses.verdicts.evidence_strength`, a choice only by
-:func:`~bayestissue.analyses.verdicts.evidence_decides` from runs that agree on each evidence,
-:func:`~bayestissue.analyses.verdicts.evidence_consistent`), and the 11-parameter posterior beside Table 1."""
+parameters (on the joint data set also of a T2 stiffness scale over shared parameters), graded by
+:func:`~bayestissue.analyses.verdicts.evidence_strength`, a choice only by
+:func:`~bayestissue.analyses.verdicts.evidence_decides` from runs that agree on each evidence
+(:func:`~bayestissue.analyses.verdicts.evidence_consistent`), and the 11-parameter posterior beside Table 1."""
 
 from __future__ import annotations
+
+import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord
@@ -42,24 +45,47 @@ def _edges(e) -> list[str]:
             for side, v in zip(("low", "high"), sh, strict=True) if v >= EDGE_SHARE]  # fmt: skip
 
 
-def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None) -> dict:
-    m, f = case.models["mirror"], case.models["full"]
-    log_b, err = case.log_bayes()
-    consistent = m.runs_agree and f.runs_agree
+def _factor(case: DataChoice, a: str, b: str) -> dict:
+    """ln B of model ``a`` over ``b`` with its grade, whether it decides, and how it moves with the boxes."""
+    log_b, err = case.log_bayes(a, b)
+    pair = (case.models[a], case.models[b])
+    moves = case.log_bayes_moves(a, b)
+    consistent = all(e.runs_agree for e in pair)
     return {
-        "c": case,
-        "mirror": m,
-        "full": f,
+        "a": a,
+        "b": b,
+        "pair": pair,
         "log_b": log_b,
         "err": err,
-        "favours": "mirror" if log_b > 0 else "full",
+        "favours": a if log_b > 0 else b,
         "grade": evidence_strength(abs(log_b), err),
         "decides": evidence_decides(log_b, err, consistent),
         "consistent": consistent,
+        "disagree": [e.model for e in pair if not e.runs_agree],
+        "moves": moves,
+        "narrowed_ok": moves is not None and bool(np.isfinite(moves["narrowed"][0])),
+        "edges": [_edges(e) for e in pair],
+    }
+
+
+def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None) -> dict:
+    """The first of the data set's factors (:data:`~bayestissue.analyses.model_choice.FACTORS`: mirror over full)
+    chooses the model; the others (the joint data set's stiffness scale over shared parameters) are reported beside
+    it."""
+    choice, *others = [_factor(case, a, b) for a, b in case.factors]
+    scale = case.models.get("scale")
+    return {
+        **choice,
+        "c": case,
+        "models": list(case.models.values()),
+        "mirror": case.models["mirror"],
+        "full": case.models["full"],
+        "others": others,
+        "factors": [choice, *others],
+        "scale_q": None if scale is None else scale.quantile("scale"),
         "stale": None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash],
-        "rows": _rows(case, I),
-        "moves": case.log_bayes_moves(),
-        "edges": {k: _edges(e) for k, e in case.models.items()},
+        # Table 1 and our least squares exist per test, not for the joint data set
+        "rows": _rows(case, I) if case.data in PAPER_PARAMETERS else [],
     }
 
 

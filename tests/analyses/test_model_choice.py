@@ -67,9 +67,11 @@ def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
     q = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
     report = SimpleNamespace(converged=False, verdict=lambda: "NOT CONVERGED: test", rhat=np.array([1.2, np.nan]),
                              quantiles=lambda: q, quantile_errors=lambda: q / 100, log_z_p=0.0047,
-                             short_of_peak=np.array([False, True]), q_runs=np.stack([q, q + 1]))  # fmt: skip
+                             short_of_peak=np.array([False, True]), q_runs=np.stack([q, q + 1]),
+                             max_log_l=np.array([20.0, 17.5]), reference_log_l=19.5)  # fmt: skip
     opts = SimpleNamespace(sampler="ultranest", n_live=50, slice_steps=None)
     e = MC.model_evidence("full", sample, report, opts, 3.0, "abc")
+    assert e.max_log_l == [20.0, 17.5] and e.reference_log_l == 19.5
     assert e.numbers_hash == "abc" and e.log_z == [10.0, 10.4] and e.calls == [100, 101] and e.merged == (10.2, 0.2)
     assert e.rhat_max == 1.2 and e.quantile("b") == [4.0, 5.0, 6.0]
     assert e.log_z_p == 0.0047 and e.peak_reached == [True, False] and not e.runs_agree
@@ -77,6 +79,9 @@ def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
     four = dataclasses.replace(e, finished=[True] * 4, peak_reached=[True] * 4)
     assert four.runs_agree is False and dataclasses.replace(four, log_z_p=0.5).runs_agree
     assert e.unit_quantiles == (q / 10).tolist() and e.run_unit_quantiles[1] == ((q + 1) / 10).tolist()
+    # without the least-squares reference the peak check has not run: refused rather than recorded as reached
+    with pytest.raises(ValueError, match="no reference log-likelihood"):
+        MC.model_evidence("full", sample, SimpleNamespace(**{**vars(report), "reference_log_l": None}), opts, 3.0, "a")
 
 
 def test_the_default_study_reads_the_committed_record_and_says_whether_it_is_current(stage, record, tmp_path, capsys):
@@ -152,6 +157,35 @@ def test_the_quick_stage_runs_both_models_and_writes_its_record(tmp_path):
         m: MC.current_hash("quick", ROOT / "data", "T1", m) for m in ("mirror", "full")
     }
     assert [len(e.log_z) for e in case.models.values()] == [2, 2]
+    for e in case.models.values():  # the peak check ran against the model's own least-squares optimum
+        assert np.isfinite(e.reference_log_l) and len(e.max_log_l) == 2
+        assert e.peak_reached == [v >= e.reference_log_l - len(e.names) / 2 for v in e.max_log_l]
     assert len(case.models["full"].names) == len(case.models["mirror"].names) + 3  # the three untied parameters
     assert "log Bayes factor mirror over full" in (tmp_path / "model_choice_T1.md").read_text()
     assert (tmp_path / "model_choice_T1.png").is_file()
+
+
+def test_the_joint_data_set_fits_both_tests_and_adds_a_t2_stiffness_scale(stage, tmp_path):
+    """The joint data set's hash follows both tests' files (the single tests' hashes are those of their own files),
+    its models are the mirror and full models on T1 and T2 together plus the mirror model with one stiffness scale
+    acting on T2 only, and each has its own seed."""
+    data = tmp_path / "data"
+    data.mkdir()
+    for f in ("T1.toml", "T1.csv", "T2.toml", "T2.csv"):
+        (data / f).write_bytes((ROOT / "data" / f).read_bytes())
+    joint = MC.current_hash("full", data, "joint", "mirror")
+    assert joint not in {MC.current_hash("full", data, t, "mirror") for t in ("T1", "T2")}
+    assert MC.current_hash("full", data, "T1", "mirror") == MC.current_hash("full", ROOT / "data", "T1", "mirror")
+    (data / "T2.csv").write_bytes((data / "T2.csv").read_bytes() + b"\n")
+    assert MC.current_hash("full", data, "joint", "mirror") != joint
+    assert MC.current_hash("full", data, "T1", "mirror") == MC.current_hash("full", ROOT / "data", "T1", "mirror")
+    problems = {m: stage._problem("joint", m) for m in MC.CANDIDATES["joint"]}
+    assert list(problems) == ["mirror", "full", "scale"] and MC.FACTORS["joint"][1] == ("scale", "mirror")
+    assert all(len(p.experiments) == 2 for p in problems.values())
+    assert set(problems["scale"].names) - set(problems["mirror"].names) == {"scale"}
+    assert (
+        problems["full"].ndim == problems["mirror"].ndim + 3 and problems["scale"].ndim == problems["mirror"].ndim + 1
+    )
+    kinds = {t.name: getattr(t.forward, "kinds", None) for t in problems["scale"].experiments}
+    assert kinds == {"T1": (), "T2": ("scale",)}  # the scale acts on T2's specimen only
+    assert all(getattr(t.forward, "kinds", None) is None for t in problems["mirror"].experiments)

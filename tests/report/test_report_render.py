@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from bayestissue.analyses import model_choice as MC
 from bayestissue.analyses.records import FILES, ControlsRecord, DiscrepancyRecord, MeasuredRecord, RateTruth
 from bayestissue.io.records import RecordError, read_record, write_record
 from bayestissue.report import read_study_records, render_report
@@ -42,8 +43,9 @@ def test_the_report_opens_with_the_answers(records):
     # the report before the template: 7 500 words; 4 517 after it, 5 452 with the laws section (issue 32), about
     # 6 100 with the specimens section (issue 35; its tables of typical and new specimens stay in their summary),
     # 6 260 -> 6 450 with the rate study's further truths (a table of 8 rows), 7 235 with the model choice (issue 36:
-    # per test a table of the 11 parameters beside Table 1, 2 rows of runs' evidence and a line of verdict)
-    assert sum(len(line.split()) for line in lines) < 7400
+    # per test a table of the 11 parameters beside Table 1, 2 rows of runs' evidence and a line of verdict), 7 997
+    # with the joint data set (3 rows of runs, the stiffness scale's factor) and the fixture's box-width table (4 rows)
+    assert sum(len(line.split()) for line in lines) < 8200
 
 
 def test_verdicts_follow_the_records(records):
@@ -169,13 +171,17 @@ def test_the_rate_answer_counts_the_truths_drawn_from_t1(records):
 
 
 def test_the_box_width_table_gives_how_ln_b_moves_and_which_bounds_hold_mass(records):
-    """Without boxes (the fixture) no table; with them, the differences of the two models' shifts, and the bounds
-    holding at least EDGE_SHARE of a posterior."""
+    """Without boxes no table; with them, the differences of the two models' shifts, and the bounds holding at least
+    EDGE_SHARE of a posterior."""
     from bayestissue.analyses.box_width import BoxShift
     from bayestissue.report.model_choice import EDGE_SHARE
 
-    assert "How ln B moves" not in render_report(records)
     rec = records.model_choice
+    none = {d: dataclasses.replace(c, models={k: dataclasses.replace(e, box=None) for k, e in c.models.items()})
+            for d, c in rec.cases.items()}  # fmt: skip
+    assert "How ln B moves" not in render_report(
+        dataclasses.replace(records, model_choice=dataclasses.replace(rec, cases=none))
+    )
     case = rec.cases["T1"]
 
     def box(narrowed, volume, flat, edge):
@@ -245,3 +251,42 @@ def test_the_model_choice_follows_the_runs_agreement_on_the_evidence_and_the_cod
     assert "| **DISAGREE** (scatter p = 0.001) |" in text
     row, _ = render(True, shift=0.2)
     assert "not decided yet" in row and "(within error)" in row
+
+
+def test_the_joint_data_set_reports_a_t2_stiffness_scale_beside_the_model_choice(records):
+    """On the joint data set the report adds ln B of a T2 stiffness scale over shared parameters (with the scale's
+    interval when the evidence decides for it) and has no Table 1 block (the paper gives values per test)."""
+    rec = records.model_choice
+    t1 = rec.cases["T1"]
+
+    def runs(e, z, model=None, extra=None):
+        e = dataclasses.replace(e, merged=(z, 0.1), log_z=[z] * 4, log_z_err=[0.2] * 4, finished=[True] * 4,
+                                peak_reached=[True] * 4, max_log_l=[1.0] * 4, log_z_p=0.5)  # fmt: skip
+        if extra is None:
+            return e
+        u = [0.5, 0.55, 0.6]
+        return dataclasses.replace(e, model=model, names=[*e.names, "scale"], quantiles=[*e.quantiles, extra],
+                                   quantile_errors=[*e.quantile_errors, [0.01] * 3],
+                                   unit_quantiles=[*e.unit_quantiles, u],
+                                   run_unit_quantiles=[[*r, u] for r in e.run_unit_quantiles], box=None)  # fmt: skip
+
+    def render(shift):
+        m, f = t1.models["mirror"], t1.models["full"]
+        z = f.merged[0]
+        models = {"mirror": runs(m, z + 3.0), "full": runs(f, z), "scale": runs(m, z + 3.0 + shift, "scale",
+                                                                                 [0.8, 1.3, 2.0])}  # fmt: skip
+        joint = MC.DataChoice(data="joint", seed=MC.STAGE_SEED + 20, models=models)
+        changed = dataclasses.replace(rec, cases={**rec.cases, "joint": joint})
+        return render_report(dataclasses.replace(records, model_choice=changed))
+
+    text = render(4.0)
+    assert (
+        "ln B scale over mirror (a stiffness scale of T2's specimen against shared parameters) **4.00 +- 0.14**" in text
+    )
+    assert (
+        "strong for a stiffness scale: the evidence says T2's specimen differs in stiffness (scale 1.3 [0.8, 2" in text
+    )
+    assert "| joint | scale | ultranest |" in text and "| joint | paper |" not in text and "| T1 | paper |" in text
+    text = render(-4.0)
+    assert "strong for shared parameters: the evidence says one parameter set serves both tests" in text
+    assert "not decided" not in text.split("- **joint**")[1].split("\n")[0]
