@@ -16,13 +16,14 @@ randomised fractional ranks, with p-values; the rank histograms go to ``--out`` 
 the p-values (with three parameters, one p below 0.01 by chance has probability about 3 %).
 
     python benchmarks/sbc_nested.py [--sampler nautilus|ultranest] [--reps 100] [--n-obs 60] [--draws 99] [--live 200]
-        [--neff 400] [--out sbc.png]
+        [--neff 400] [--out sbc.png] [--log sbc.jsonl]
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import multiprocessing as mp
 import os
 import sys
@@ -79,6 +80,25 @@ def _replication(r, args):
     return r, ranks, time.perf_counter() - t0
 
 
+def _settings(args) -> dict:
+    """What a replication's ranks depend on (a log written under other settings is not reused)."""
+    return {k: getattr(args, k) for k in ("sampler", "n_obs", "draws", "live", "neff", "seed")}
+
+
+def _logged(args) -> dict:
+    """Replication -> (ranks or None, seconds) from ``args.log`` (lines of other settings refused)."""
+    done = {}
+    if args.log is None or not args.log.is_file():
+        return done
+    for k, line in enumerate(args.log.read_text().splitlines(), 1):
+        row = json.loads(line)
+        if row["settings"] != _settings(args):
+            raise SystemExit(f"{args.log} line {k}: settings {row['settings']}, expected {_settings(args)}")
+        if row["rep"] < args.reps:
+            done[row["rep"]] = (None if row["ranks"] is None else np.array(row["ranks"]), row["seconds"])
+    return done
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sampler", choices=("nautilus", "ultranest"), default="nautilus")
@@ -90,24 +110,32 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--processes", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", help="PNG of the rank histograms")
+    ap.add_argument("--log", type=Path, help="JSON lines, one per finished replication; a rerun with the same settings "
+                    "skips the replications it holds (a long run can be stopped and resumed)")  # fmt: skip
     args = ap.parse_args(argv)
     print(
         f"{args.sampler}, {args.live} live points; boxes (log-uniform): {SAMPLED}; noise sd {NOISE_SD} mm; "
         f"{args.n_obs} observations; L = {args.draws}"
     )
     t0 = time.perf_counter()
-    ranks, times, skipped = [], [], 0
+    done = _logged(args)
+    todo = [r for r in range(args.reps) if r not in done]
+    if done:
+        print(f"{len(done)} replications read from {args.log}, {len(todo)} to run")
     ctx = mp.get_context("fork")
     with ProcessPoolExecutor(args.processes, mp_context=ctx) as ex:
-        for _r, rk, dt in ex.map(_replication, range(args.reps), [args] * args.reps):
-            if rk is None:
-                skipped += 1
-                continue
-            ranks.append(rk)
-            times.append(dt)
-            if len(ranks) % 10 == 0:
-                print(f"  {len(ranks)} replications, {time.perf_counter() - t0:.0f} s", flush=True)
-    ranks = np.array(ranks)
+        for r, rk, dt in ex.map(_replication, todo, [args] * len(todo)):
+            done[r] = (rk, dt)
+            if args.log:
+                with args.log.open("a") as f:
+                    f.write(json.dumps({"settings": _settings(args), "rep": r, "ranks": None if rk is None else
+                                        rk.tolist(), "seconds": dt}) + "\n")  # fmt: skip
+            if len(done) % 10 == 0:
+                print(f"  {len(done)} replications, {time.perf_counter() - t0:.0f} s", flush=True)
+    kept = [done[r] for r in range(args.reps) if done[r][0] is not None]
+    skipped = args.reps - len(kept)
+    ranks = np.array([rk for rk, _ in kept])
+    times = [dt for _, dt in kept]
     n = ranks.shape[0]
     print(
         f"{n} replications ({skipped} skipped: forward solve failed at the generating values), "
@@ -116,6 +144,11 @@ def main(argv=None) -> int:
     tests = rank_tests(ranks, args.draws, list(SAMPLED))
     for line in rank_lines(tests):
         print(line)
+    # the truth inside the central 90 % of the L draws: between the 5 % and 95 % order statistics
+    lo, hi = int(np.ceil(0.05 * args.draws)), int(np.floor(0.95 * args.draws))
+    inside = ((ranks >= lo) & (ranks <= hi)).sum(axis=0)
+    print("90 % intervals holding the generating value: " + ", ".join(
+        f"{name} {k} of {n}" for name, k in zip(SAMPLED, inside, strict=True)))  # fmt: skip
     if args.out:
         title = f"simulation-based calibration of the nested engine ({args.sampler}), {n} replications (short T1 creep)"
         rank_figure([(ranks, tests, f"{n} runs")], args.draws, list(SAMPLED), title, args.out)

@@ -26,6 +26,8 @@ SMOKE = {
                                 "--exact-draws", "20000"], "within 2 of their MC errors"),
     "rosenbrock_evidence.py --sampler ultranest": (["--n-live", "100", "--n-eff", "200", "--runs", "2", "--blocks",
                                                     "1", "--depth", "2", "--exact-draws", "20000"], "insertion test"),
+    "sbc_nested.py --sampler ultranest": (["--reps", "1", "--live", "30", "--neff", "30", "--processes", "1"],
+                                          "90 % intervals"),
     "sbc_emcee.py": (["--problems", "creep", "--reps", "1", "--max-steps", "200", "--ensembles", "2",
                       "--processes", "1"], "90 % intervals holding the truth"),
     "cluster_scaling.py": (["--n-live", "50", "--runs", "2", "--workers", "1", "--max-evaluations", "500"],
