@@ -287,6 +287,9 @@ def test_the_joint_data_set_reports_a_t2_stiffness_scale_beside_the_model_choice
         "strong for a stiffness scale: the evidence says T2's specimen differs in stiffness (scale 1.3 [0.8, 2" in text
     )
     assert "| joint | scale | ultranest |" in text and "| joint | paper |" not in text and "| T1 | paper |" in text
+    answer = "(evidence on both tests jointly) | **yes**: T2's moduli 1.3 [0.8, 2] x T1's | ln B scale over mirror 4.00"
+    assert f"| Do the two specimens differ in stiffness alone? {answer} +- 0.14 (strong)" in text
     text = render(-4.0)
+    assert "differ in stiffness alone? (evidence on both tests jointly) | **no** |" in text
     assert "strong for shared parameters: the evidence says one parameter set serves both tests" in text
     assert "not decided" not in text.split("- **joint**")[1].split("\n")[0]
