@@ -41,10 +41,10 @@ def _evidence(ax, case) -> None:
 def _intervals(ax, case) -> None:
     names = list(dict.fromkeys(n for e in sorted(case.models.values(), key=lambda e: -len(e.names)) for n in e.names))
     rows = {n: len(names) - 1 - i for i, n in enumerate(names)}
-    n_models = len(case.models)
+    half = 0.1 * len(case.models)  # the models' rows spread over +- half around each parameter's
     for j, (name, e) in enumerate(case.models.items()):
         c = MODEL_COLOURS.get(name, "0.4")
-        shift = 0.2 - 0.4 * j if n_models <= 2 else 0.3 - 0.6 * j / (n_models - 1)
+        shift = half - 2 * half * j / max(len(case.models) - 1, 1)
         for p, u in zip(e.names, e.unit_quantiles, strict=True):
             y = rows[p] + shift
             runs = [r[e.names.index(p)] for r in e.run_unit_quantiles]
