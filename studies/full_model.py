@@ -4,13 +4,14 @@ analyses.model_choice); on the joint data set also shared parameters against a T
 ``--full`` runs each data set's models through the nested engine (4 runs each; the runs as dask tasks on a
 LocalCluster, 47-71 minutes of both cores per single test here) and writes into --out ``model_choice_record.json``
 (read by the report: the Bayes factors and the 11-parameter posteriors beside Table 1), ``model_choice_<data>.png``
-and ``model_choice_<data>.md``; the record after every data set, and ``--data`` reruns the data sets it names and
-keeps the others' cases. A model whose committed runs match the current code, data and its settings is kept, not
-rerun. The default study computes nothing: it reads the committed record and says whether each model's runs still
-belong to the current code (:func:`~bayestissue.analyses.model_choice.current_hash`). ``--quick`` is a capped smoke
-run of the same code on T1 into its own folder.
+and ``model_choice_<data>.md``; the record after every model, and ``--data`` and ``--models`` rerun the data sets and
+models they name and keep the others' runs (so that a data set's models can be run in separate sessions). A model
+whose committed runs match the current code, data and its settings is kept, not rerun. The default study computes
+nothing: it reads the committed record and says whether each model's runs still belong to the current code
+(:func:`~bayestissue.analyses.model_choice.current_hash`). ``--quick`` is a capped smoke run of the same code on T1
+into its own folder.
 
-    python studies/full_model.py [--quick | --full] [--data T1 T2 joint] [--out DIR]
+    python studies/full_model.py [--quick | --full] [--data T1 T2 joint] [--models mirror full scale] [--out DIR]
 """
 
 from __future__ import annotations
@@ -90,8 +91,9 @@ def _peak(problem, options: NestedOptions, seed: int, n_starts: int) -> float:
     return peak
 
 
-def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataChoice:
-    """Both models on ``data``. Under --full, a model whose runs in ``old`` match the current code, data and settings
+def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, save) -> DataChoice:
+    """The ``chosen`` models on ``data`` (the others keep their runs in ``old``, if any), calling ``save`` with the
+    case after every model. Under --full, a model whose runs in ``old`` match the current code, data and settings
     (:func:`~bayestissue.analyses.model_choice.current_hash`) is kept as it is, and checkpoints are keyed by that
     hash: a killed --full run resumes only runs that match it."""
     settings = SETTINGS[mode]
@@ -99,10 +101,13 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataC
     models = {}
     for k, model in enumerate(CANDIDATES[data]):
         key = current_hash(mode, ROOT / "data", data, model)
-        kept = old.models.get(model) if old is not None and mode == "full" else None
-        if kept is not None and kept.numbers_hash == key:
-            print(f"[full model] {data}, {model} model: kept, its runs match the current code ({key})", flush=True)
+        kept = old.models.get(model) if old is not None else None
+        if kept is not None and (model not in chosen or (mode == "full" and kept.numbers_hash == key)):
+            state = "matches the current code" if kept.numbers_hash == key else "not chosen to run"
+            print(f"[full model] {data}, {model} model: kept ({kept.numbers_hash}, {state})", flush=True)
             models[model] = kept
+            continue
+        if model not in chosen:
             continue
         cache = ROOT / ".cache" / "model_choice" / key
         problem = _problem(data, model)
@@ -121,13 +126,14 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None) -> DataC
         models[model] = model_evidence(model, sample, rep, opts, wall, key)
         print(f"[full model] {data} {model}: log Z {sample.log_z:.3f} +- {sample.log_z_err:.3f}, {wall:.0f} s; "
               f"{rep.verdict()}", flush=True)  # fmt: skip
+        save(DataChoice(data=data, seed=seed, models=dict(models)))  # a killed stage keeps every model it finished
     return DataChoice(data=data, seed=seed, models=models)
 
 
 def _summary(case: DataChoice, mode: str) -> str:
     *first, last = case.models
     lines = [f"# The {', '.join(first)} and {last} models on {case.data} ({mode})", ""]
-    for a, b in case.factors:
+    for a, b in case.factors_run:
         log_b, err = case.log_bayes(a, b)
         lines.append(f"log Bayes factor {a} over {b}: {log_b:.2f} +- {err:.2f}\n")
         moves = case.log_bayes_moves(a, b)
@@ -188,6 +194,9 @@ def main(argv=None) -> int:
     mode.add_argument("--full", action="store_true", help="compute the record (47-71 min of both cores a test)")
     ap.add_argument("--out", type=Path, default=ROOT / "figures")
     ap.add_argument("--data", nargs="+", choices=DATASETS, help="data sets to run (default: all; --quick T1)")
+    ap.add_argument("--models", nargs="+", choices=sorted({m for c in CANDIDATES.values() for m in c}),
+                    help="models to run on each data set (default: all of its candidates; the others keep the "
+                         "record's runs)")  # fmt: skip
     args = ap.parse_args(argv)
     path = args.out / FILES[ModelChoiceRecord]
     if not (args.quick or args.full):
@@ -200,11 +209,15 @@ def main(argv=None) -> int:
     old = read_record(path, ModelChoiceRecord) if path.is_file() else None
     cases = dict(old.cases) if old is not None and old.mode == mode else {}
     n_workers = min(4, os.cpu_count() or 1)
-    for d in data:
-        cases[d] = _case(mode, d, n_workers, cases.get(d))
+
+    def save(case: DataChoice) -> None:
+        cases[case.data] = case
         rec = ModelChoiceRecord(mode=mode, scheduler=SETTINGS[mode]["scheduler"] or "processes", n_workers=n_workers,
                                 cases={k: cases[k] for k in DATASETS if k in cases})  # fmt: skip
-        write_record(path, rec)  # after every data set: a killed stage keeps what it finished
+        write_record(path, rec)
+
+    for d in data:
+        save(_case(mode, d, n_workers, cases.get(d), set(args.models or CANDIDATES[d]), save))
         (args.out / f"model_choice_{d}.md").write_text(_summary(cases[d], mode))
         plot_model_choice(cases[d], mode, args.out / f"model_choice_{d}.png")
         print(f"[full model] wrote {path}, model_choice_{d}.md and .png", flush=True)

@@ -203,6 +203,12 @@ class DataChoice:
         """The (numerator, denominator) pairs this data set reports (:data:`FACTORS`)."""
         return FACTORS[self.data]
 
+    @property
+    def factors_run(self) -> tuple[tuple[str, str], ...]:
+        """The :attr:`factors` whose two models have both been run (a data set's models may run in separate
+        sessions)."""
+        return tuple((a, b) for a, b in self.factors if a in self.models and b in self.models)
+
     def log_bayes(self, a: str = "mirror", b: str = "full") -> tuple[float, float]:
         """:math:`\\ln B` of model ``a`` over model ``b`` and :math:`\\sigma_{\\ln B}` (module docstring)."""
         m, f = self.models[a].merged, self.models[b].merged

@@ -109,25 +109,29 @@ def test_the_default_study_reads_the_committed_record_and_says_whether_it_is_cur
 
 
 def test_a_full_rerun_keeps_the_models_whose_runs_match_the_current_code(stage, record, monkeypatch, capsys):
-    """Only a model whose hash changed is run again (here: none runs, the sampler is replaced by one that fails)."""
+    """Only a model whose hash changed is run again (here: none runs, the sampler is replaced by one that fails), and
+    only among the models chosen to run: the others keep their runs, matching or not."""
     case = record.cases["T1"]
     now = {m: MC.current_hash("full", ROOT / "data", "T1", m) for m in case.models}
     current = dataclasses.replace(case, models={m: dataclasses.replace(e, numbers_hash=now[m])
                                                 for m, e in case.models.items()})  # fmt: skip
+    both, saved = {"mirror", "full"}, []
 
     def no_runs(*a, **k):
         raise AssertionError("a model whose runs match the current code was run again")
 
     monkeypatch.setattr(stage, "sample_nested", no_runs)
-    kept = stage._case("full", "T1", 1, current)
-    assert kept.models == current.models
-    assert capsys.readouterr().out.count("kept, its runs match the current code") == 2
+    kept = stage._case("full", "T1", 1, current, both, saved.append)
+    assert kept.models == current.models and saved == []
+    assert capsys.readouterr().out.count("matches the current code") == 2
     stale = dataclasses.replace(current, models={**current.models, "mirror": dataclasses.replace(
         current.models["mirror"], numbers_hash="0" * 16)})  # fmt: skip
     with pytest.raises(AssertionError, match="was run again"):
-        stage._case("full", "T1", 1, stale)
-    with pytest.raises(AssertionError, match="was run again"):  # --quick never keeps runs
-        stage._case("quick", "T1", 1, current)
+        stage._case("full", "T1", 1, stale, both, saved.append)
+    assert stage._case("full", "T1", 1, stale, {"full"}, saved.append).models == stale.models  # mirror not chosen
+    assert "0000000000000000, not chosen to run" in capsys.readouterr().out
+    with pytest.raises(AssertionError, match="was run again"):  # --quick never keeps the runs it is asked for
+        stage._case("quick", "T1", 1, current, {"full"}, saved.append)
 
 
 def test_the_figure_shows_the_factor_and_every_parameter(record, tmp_path):
