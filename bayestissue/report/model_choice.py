@@ -71,17 +71,26 @@ def _factor(case: DataChoice, a: str, b: str) -> dict:
 def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None) -> dict:
     """The first of the data set's factors (:data:`~bayestissue.analyses.model_choice.FACTORS`: mirror over full)
     chooses the model; the others (the joint data set's stiffness scale over shared parameters) are reported beside
-    it."""
-    choice, *others = [_factor(case, a, b) for a, b in case.factors]
+    it. A factor whose models have not both run yet (a data set's models may run in separate sessions) is listed in
+    ``pending`` with the models it still needs, and the choice is then not made (``ran`` False)."""
+    first, *rest = case.factors
+    run = {f: _factor(case, *f) for f in case.factors_run}
+    choice = run.get(first, {"decides": False})
     scale = case.models.get("scale")
     return {
         **choice,
+        "ran": first in run,
         "c": case,
         "models": list(case.models.values()),
-        "mirror": case.models["mirror"],
-        "full": case.models["full"],
-        "others": others,
-        "factors": [choice, *others],
+        "mirror": case.models.get("mirror"),
+        "full": case.models.get("full"),
+        "others": [run[f] for f in rest if f in run],
+        "factors": list(run.values()),
+        "pending": [
+            {"a": a, "b": b, "missing": [m for m in (a, b) if m not in case.models]}
+            for a, b in case.factors
+            if (a, b) not in run
+        ],  # fmt: skip
         "scale_q": None if scale is None else scale.quantile("scale"),
         "stale": None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash],
         # Table 1 and our least squares exist per test, not for the joint data set

@@ -293,3 +293,23 @@ def test_the_joint_data_set_reports_a_t2_stiffness_scale_beside_the_model_choice
     assert "differ in stiffness alone? (evidence on both tests jointly) | **no** |" in text
     assert "strong for shared parameters: the evidence says one parameter set serves both tests" in text
     assert "not decided" not in text.split("- **joint**")[1].split("\n")[0]
+
+
+def test_a_data_set_whose_models_have_not_all_run_says_which_factor_waits_for_which_model(records):
+    """A data set's models may run in separate sessions (``full_model.py --models``): with only the joint mirror
+    model run, its runs are listed, no factor is computed or decided, and the report names the models still to run."""
+    rec = records.model_choice
+    joint = rec.cases["joint"]
+    partial = dataclasses.replace(joint, models={"mirror": joint.models["mirror"]})
+    changed = dataclasses.replace(rec, cases={**rec.cases, "joint": partial})
+    text = render_report(dataclasses.replace(records, model_choice=changed))
+    assert "| joint | mirror | ultranest |" in text and "| joint | full |" not in text
+    bullet = text.split("- **joint**:")[1].split("\n")[0]
+    assert "ln B mirror over full not yet: the full model has not run" in bullet
+    assert "ln B scale over mirror not yet: the scale model has not run" in bullet
+    assert "--data joint --models scale" in bullet and "**" not in bullet.split("Code and data")[0]
+    assert "| Which model do the data support" in text and "joint: not run yet" in text
+    assert "joint: the full model not run yet" in text
+    assert "| Do the two specimens differ in stiffness alone? (evidence on both tests jointly) | not run yet |" in text
+    # the tests run on their own are still decided as before
+    assert render_report(records).split("- **T1**:")[1].split("\n")[0] == text.split("- **T1**:")[1].split("\n")[0]
