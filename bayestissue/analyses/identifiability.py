@@ -79,7 +79,7 @@ def code_salt(package: Path | None = None) -> str:
     """Hash of every source file of the package: the cache key of a task then changes with the code."""
     from bayestissue.io.results import package_sha256
 
-    return "code-" + package_sha256(package)[:16]
+    return "code-" + package_sha256(package, parts=None)[:16]
 
 
 #: mixed into every cache key (see code_salt)

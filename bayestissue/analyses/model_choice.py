@@ -34,6 +34,7 @@ import numpy as np
 
 from bayestissue.analyses.box_width import BoxShift, box_shift
 from bayestissue.analyses.verdicts import evidence_consistent
+from bayestissue.io.results import source_files
 from bayestissue.paper import MIRROR_TIES
 
 __all__ = [
@@ -111,10 +112,8 @@ def numbers_hash(data_files, settings: str = "") -> str:
     run's ``settings`` text: it changes with anything the stage's numbers depend on."""
     package = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
-    for part in SOURCES:
-        root = package / part
-        for f in sorted(root.rglob("*.py")) if root.is_dir() else [root]:
-            h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    for f in source_files(SOURCES):
+        h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     for f in data_files:
         h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
     h.update(settings.encode())

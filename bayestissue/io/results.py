@@ -20,6 +20,8 @@ from bayestissue.io.toml_files import read_toml
 __all__ = [
     "file_sha256",
     "package_sha256",
+    "RUN_SOURCES",
+    "source_files",
     "read_config",
     "provenance",
     "write_inference_data",
@@ -35,12 +37,31 @@ def file_sha256(path: str | Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def package_sha256(package: str | Path | None = None) -> str:
-    """Hex SHA-256 over every source file of the package (relative path and bytes, in sorted order): changes with
-    any change of the code, and only then."""
+def source_files(parts: Iterable[str] | None = None, package: str | Path | None = None) -> list[Path]:
+    """The package's source files: under each of ``parts`` (sub-packages or modules, relative to the package, in
+    the given order; each part's files sorted), or every one (sorted) when ``parts`` is None."""
+    package = Path(__file__).resolve().parents[1] if package is None else Path(package)
+    if parts is None:
+        return sorted(package.rglob("*.py"))
+    roots = [package / part for part in parts]
+    return [f for root in roots for f in (sorted(root.rglob("*.py")) if root.is_dir() else [root])]
+
+
+#: The parts of the package a calibration's numbers come from: the mechanics, the samplers, the workflow that builds
+#: the problem, the readers of its inputs and the checks on them (:func:`package_sha256`'s default). A run
+#: directory's manifest hashes these, so that a change of the report, the figures or the command line leaves a run
+#: resumable, and a change of anything its numbers depend on does not.
+RUN_SOURCES = ("mechanics", "inference", "workflows", "io", "stereology", "paper.py", "parallel.py", "_schema.py",
+               "_validation.py")  # fmt: skip
+
+
+def package_sha256(package: str | Path | None = None, parts: Iterable[str] | None = RUN_SOURCES) -> str:
+    """Hex SHA-256 over source files of the package (relative path and bytes; :func:`source_files` of ``parts``,
+    by default :data:`RUN_SOURCES`; ``parts=None``: every source file): changes with any change of that code, and
+    only then."""
     package = Path(__file__).resolve().parents[1] if package is None else Path(package)
     h = hashlib.sha256()
-    for f in sorted(package.rglob("*.py")):
+    for f in source_files(parts, package):
         h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     return h.hexdigest()
 

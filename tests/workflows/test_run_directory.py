@@ -115,3 +115,28 @@ def test_resume_with_checkpoints_that_are_a_file_is_refused(tmp_path):
     (out / "checkpoints").write_text("not a folder")
     with pytest.raises(ValidationError, match=r"--resume: expected a folder of checkpoints \(checkpoints/ is a file\)"):
         open_run_directory(out, m, resume=True).__enter__()
+
+
+def test_the_manifest_hashes_the_code_the_numbers_come_from_and_not_the_report(tmp_path):
+    """A resume survives a change of the report, the figures or the command line (a lab may update the tool for a
+    figure while a long run is checkpointed) and is refused after a change of the mechanics, the samplers, the
+    workflow or the readers: :data:`~bayestissue.io.results.RUN_SOURCES` (checked on a copy of the package)."""
+    import shutil
+    from pathlib import Path
+
+    import bayestissue
+    from bayestissue.io.results import RUN_SOURCES, package_sha256
+
+    pkg = tmp_path / "bayestissue"
+    shutil.copytree(Path(bayestissue.__file__).parent, pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    before, whole = package_sha256(pkg), package_sha256(pkg, parts=None)
+    for part in ("report/render.py", "plotting/style.py", "cli/__init__.py"):
+        (pkg / part).write_text((pkg / part).read_text() + "\n# edited\n")
+    assert package_sha256(pkg) == before and package_sha256(pkg, parts=None) != whole
+    for part in RUN_SOURCES:
+        f = pkg / part if part.endswith(".py") else sorted((pkg / part).rglob("*.py"))[-1]
+        saved = f.read_bytes()
+        f.write_bytes(saved + b"\n# edited\n")
+        assert package_sha256(pkg) != before, part
+        f.write_bytes(saved)
+    assert package_sha256(pkg) == before
