@@ -13,7 +13,7 @@ and t_start the excess of the 1-worker wall time over the sum of its run times; 
 (more effective draws, a tighter merged error) use the cores.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/cluster_scaling.py [--data T1] [--full] [--runs 2] [--workers 1 2]
-        [--n-live 300] [--n-eff 500] [--max-evaluations N]
+        [--sampler nautilus|ultranest] [--n-live 300] [--n-eff 500] [--max-evaluations N]
 """
 
 from __future__ import annotations
@@ -43,6 +43,12 @@ def main(argv=None) -> None:
     ap.add_argument("--full", action="store_true", help="all 11 parameters (default: the mirror model, 8)")
     ap.add_argument("--runs", type=int, default=2)
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument(
+        "--sampler",
+        default="nautilus",
+        choices=("nautilus", "ultranest"),
+        help="ultranest: the full-model stage's engine (population slice sampler, population 100)",
+    )
     ap.add_argument("--n-live", type=int, default=300)
     ap.add_argument("--n-eff", type=int, default=500)
     ap.add_argument("--seed", type=int, default=1)
@@ -51,10 +57,11 @@ def main(argv=None) -> None:
 
     exp = load_experiment(ROOT / "data" / f"{args.data}.toml")
     problem = build_problem([exp], load_config(None, tied=None if args.full else dict(MIRROR_TIES)))
-    base = {"n_live": args.n_live, "n_eff": args.n_eff, "n_runs": args.runs, "n_networks": 1,
+    base = {"sampler": args.sampler, "n_live": args.n_live, "n_eff": args.n_eff, "n_runs": args.runs,
             "max_evaluations": args.max_evaluations, "report_every": 1000}  # fmt: skip
+    base.update({"n_networks": 1} if args.sampler == "nautilus" else {"population": 100})
     model = "full" if args.full else "mirror"
-    print(f"{args.data}, {model} model ({problem.ndim} sampled), {args.runs} nested runs of {args.n_live} live "
+    print(f"{args.data}, {model} model ({problem.ndim} sampled), {args.runs} {args.sampler} runs of {args.n_live} live "
           f"points, n_eff {args.n_eff}, seed {args.seed}; {os.cpu_count()} cores")  # fmt: skip
     configs = [(f"forked processes, {max(args.workers)}", NestedOptions(**base, n_processes=max(args.workers)))]
     configs += [(f"dask LocalCluster, {w} worker(s)", NestedOptions(**base, n_processes=w, scheduler="local"))

@@ -6,6 +6,8 @@ parameters (on the joint data set also of a T2 stiffness scale over shared param
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
@@ -14,8 +16,10 @@ from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import EVIDENCE_MIN_RUNS, EVIDENCE_P, evidence_decides, evidence_strength
 from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS
 
-__all__ = ["EDGE_SHARE", "model_choice_context"]
+__all__ = ["EDGE_SHARE", "PROJECTED_WORKERS", "model_choice_context"]
 
+#: The worker counts the wall-time projection is given for (:func:`_projection`).
+PROJECTED_WORKERS = (1, 4)
 #: a bound is listed as holding posterior mass if its outermost decade holds at least this share (a flat marginal
 #: over a 6-decade box holds 0.17)
 EDGE_SHARE = 0.05
@@ -43,6 +47,14 @@ def _edges(e) -> list[str]:
         return []
     return [f"{n} {side} {v:.2f}" for n, sh in zip(e.box.names, e.box.edge_share, strict=True)
             for side, v in zip(("low", "high"), sh, strict=True) if v >= EDGE_SHARE]  # fmt: skip
+
+
+def _projection(e) -> dict[int, float]:
+    r"""Wall time (s) of ``e``'s runs on W workers, :math:`\lceil R / W \rceil \bar t_{run}` for W in
+    :data:`PROJECTED_WORKERS`: the runs are independent tasks and none is split (docs/cluster.md), and
+    :math:`\bar t_{run}` is their mean time as measured here, beside the other runs of the record (a little above a
+    run's time alone, so W = 1 is an upper estimate)."""
+    return {w: math.ceil(len(e.time_s) / w) * float(np.mean(e.time_s)) for w in PROJECTED_WORKERS}
 
 
 def _factor(case: DataChoice, a: str, b: str) -> dict:
@@ -82,6 +94,7 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
         "ran": first in run,
         "c": case,
         "models": list(case.models.values()),
+        "projected": {k: _projection(e) for k, e in case.models.items()},
         "mirror": case.models.get("mirror"),
         "full": case.models.get("full"),
         "others": [run[f] for f in rest if f in run],

@@ -9,6 +9,7 @@ import dataclasses
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from bayestissue.analyses import model_choice as MC
@@ -313,3 +314,15 @@ def test_a_data_set_whose_models_have_not_all_run_says_which_factor_waits_for_wh
     assert "| Do the two specimens differ in stiffness alone? (evidence on both tests jointly) | not run yet |" in text
     # the tests run on their own are still decided as before
     assert render_report(records).split("- **T1**:")[1].split("\n")[0] == text.split("- **T1**:")[1].split("\n")[0]
+
+
+def test_the_wall_time_is_projected_from_the_runs_measured_times(records):
+    """On W workers a model's R unsplit runs take ceil(R / W) mean run times: the fixture's 2 runs per model give one
+    run's time on 4 workers and two on 1."""
+    rec = records.model_choice
+    line = next(x for x in render_report(records).splitlines() if x.startswith("Wall time:"))
+    for data, case in rec.cases.items():
+        for model, e in case.models.items():
+            t = float(np.mean(e.time_s))
+            assert len(e.time_s) == 2
+            assert f"{data} {model} {2 * t:.0f} s on 1 worker, {t:.0f} s on 4 workers" in line
