@@ -53,6 +53,12 @@ __all__ = [
     "numbers_hash",
 ]
 
+#: How the engine's verdict names its peak reference, and how the record names the stage's (studies/full_model.py
+#: climbs the runs' likelihood from the least-squares optima, which on the joint data set lie far below its peak).
+PEAK_WORDS = (
+    "the least-squares optimum's log-likelihood",
+    "the likelihood's peak climbed from the least-squares optima",
+)
 #: The parts of the package the likelihood and the samplers are made of (a change elsewhere, e.g. in the report,
 #: leaves the numbers as they are).
 SOURCES = ("mechanics", "inference", "workflows", "paper.py", "_validation.py")
@@ -243,8 +249,8 @@ class ModelChoiceRecord:
 
 def model_evidence(model: str, sample, report, options, wall_s: float, key: str) -> ModelEvidence:
     """The record of one model's :class:`~bayestissue.inference.sampling.NestedSample` and its
-    :class:`~bayestissue.inference.evidence.NestedReport` (assessed against the least-squares optimum's
-    log-likelihood: without it the peak check cannot run); ``key`` its :func:`current_hash`."""
+    :class:`~bayestissue.inference.evidence.NestedReport` (assessed against a reference log-likelihood, the stage's
+    climbed from the least-squares optima: without it the peak check cannot run); ``key`` its :func:`current_hash`."""
     if report.reference_log_l is None:
         raise ValueError("the report has no reference log-likelihood: assess_nested(..., reference_log_l=...)")
     runs = sample.runs
@@ -268,7 +274,8 @@ def model_evidence(model: str, sample, report, options, wall_s: float, key: str)
         log_z_p=float(report.log_z_p),
         merged=(sample.log_z, sample.log_z_err),
         converged=report.converged,
-        verdict=report.verdict(),
+        # the engine names its reference "the least-squares optimum's"; the stage's is climbed from there
+        verdict=report.verdict().replace(PEAK_WORDS[0], PEAK_WORDS[1]),
         rhat_max=float(np.nanmax(report.rhat)) if np.any(np.isfinite(report.rhat)) else float("nan"),
         quantiles=q.tolist(),
         quantile_errors=report.quantile_errors().tolist(),
