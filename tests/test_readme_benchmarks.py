@@ -32,6 +32,8 @@ SMOKE = {
                       "--processes", "1"], "90 % intervals holding the truth"),
     "cluster_scaling.py": (["--n-live", "50", "--runs", "2", "--workers", "1", "--max-evaluations", "500"],
                            "projected"),
+    "cluster_scaling.py --sampler ultranest": (["--n-live", "30", "--runs", "2", "--workers", "1",
+                                                "--max-evaluations", "2000"], "projected"),
     "nested_samplers.py": (["--n-live", "50", "--runs", "2", "--max-evaluations", "1500"], "on the quantiles"),
     "compare_engines.py": ([str(ROOT / "figures" / "calibration_summary_T1_mirror.csv"),
                             str(ROOT / "figures" / "calibration_summary_T1_mirror.csv")], "marginals AGREE"),

@@ -62,6 +62,22 @@ def _intervals(ax, case) -> None:
     ax.legend(fontsize=FONT["legend"] - 1, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=len(case.models))
 
 
+#: How the title names each factor's pair (numerator, denominator).
+PAIR_WORDS = {("mirror", "full"): "the mirror model against the paper's 11 parameters",
+              ("scale", "mirror"): "a T2 stiffness scale against shared parameters"}  # fmt: skip
+
+
+def _title(case) -> str:
+    """The factors the figure shows, and the models of the data set not run yet (they run in separate sessions)."""
+    shown = [PAIR_WORDS.get((a, b), f"{a} against {b}") for a, b in case.factors_run]
+    missing = [m for pair in case.factors for m in pair if m not in case.models]
+    missing = list(dict.fromkeys(missing))
+    if not missing:
+        return ", and ".join(shown)
+    wait = f"the {' and '.join(missing)} {'model' if len(missing) == 1 else 'models'} not run yet"
+    return ", and ".join(shown) + f" ({wait})" if shown else f"{', '.join(case.models)} model runs; {wait}"
+
+
 def plot_model_choice(case, mode: str, path):
     """Write the two-panel figure of one data set's :class:`~bayestissue.analyses.model_choice.DataChoice` (a ``mode``
     run) to ``path``; returns the (closed) figure."""
@@ -69,10 +85,7 @@ def plot_model_choice(case, mode: str, path):
     _evidence(a, case)
     _intervals(b, case)
     tidy_axes(fig)
-    what = "the mirror model against the paper's 11 parameters"
-    if "scale" in case.models:
-        what += ", and a T2 stiffness scale against shared parameters"
-    fig.suptitle(f"{case.data}: {what} ({mode} run)", fontsize=FONT["title"] + 1)
+    fig.suptitle(f"{case.data}: {_title(case)} ({mode} run)", fontsize=FONT["title"] + 1)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)

@@ -220,3 +220,15 @@ def test_the_peak_reference_climbs_the_runs_likelihood_from_the_least_squares_op
         monkeypatch.setattr(stage, "nested_target", lambda problem, options, f=log_l: (2, None, f, None))
         got = stage._polish(SimpleNamespace(material=box), None, box.from_unit(np.array([0.9, 0.1])))
         assert got == pytest.approx(expected, abs=1e-6)
+
+
+def test_the_figure_title_names_the_models_not_run_yet(record, tmp_path):
+    case = record.cases["T1"]
+    fig = plot_model_choice(case, record.mode, tmp_path / "t1.png")
+    assert fig._suptitle.get_text() == "T1: the mirror model against the paper's 11 parameters (quick run)"
+    joint = MC.DataChoice(data="joint", seed=MC.STAGE_SEED + 20, models={"mirror": case.models["mirror"]})
+    fig = plot_model_choice(joint, record.mode, tmp_path / "joint.png")
+    assert fig._suptitle.get_text() == "joint: mirror model runs; the full and scale models not run yet (quick run)"
+    two = MC.DataChoice(data="joint", seed=MC.STAGE_SEED + 20, models=dict(case.models))
+    title = plot_model_choice(two, record.mode, tmp_path / "two.png")._suptitle.get_text()
+    assert title == "joint: the mirror model against the paper's 11 parameters (the scale model not run yet) (quick run)"

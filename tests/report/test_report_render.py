@@ -309,8 +309,9 @@ def test_a_data_set_whose_models_have_not_all_run_says_which_factor_waits_for_wh
     assert "ln B mirror over full not yet: the full model has not run" in bullet
     assert "ln B scale over mirror not yet: the scale model has not run" in bullet
     assert "--data joint --models scale" in bullet and "**" not in bullet.split("Code and data")[0]
-    assert "| Which model do the data support" in text and "joint: not run yet" in text
-    assert "joint: the full model not run yet" in text
+    assert "| Which model do the data support" in text and "joint: not yet, a model has not run" in text
+    agree = "yes" if joint.models["mirror"].runs_agree else "**no**"
+    assert f"joint: the full model not run yet, runs agree on the evidence: mirror {agree} |" in text
     assert "| Do the two specimens differ in stiffness alone? (evidence on both tests jointly) | not run yet |" in text
     # the tests run on their own are still decided as before
     assert render_report(records).split("- **T1**:")[1].split("\n")[0] == text.split("- **T1**:")[1].split("\n")[0]
