@@ -231,5 +231,6 @@ def test_the_figure_title_names_the_models_not_run_yet(record, tmp_path):
     assert fig._suptitle.get_text() == "joint: mirror model runs; the full and scale models not run yet (quick run)"
     two = MC.DataChoice(data="joint", seed=MC.STAGE_SEED + 20, models=dict(case.models))
     title = plot_model_choice(two, record.mode, tmp_path / "two.png")._suptitle.get_text()
-    assert title == ("joint: the mirror model against the paper's 11 parameters (the scale model not run yet) "
-                     "(quick run)")
+    assert title == (
+        "joint: the mirror model against the paper's 11 parameters (the scale model not run yet) (quick run)"
+    )
