@@ -160,7 +160,10 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, 
 
 def _summary(case: DataChoice, mode: str) -> str:
     *first, last = case.models
-    lines = [f"# The {', '.join(first)} and {last} models on {case.data} ({mode})", ""]
+    names = f"{', '.join(first)} and {last} models" if first else f"{last} model"
+    missing = [m for m in CANDIDATES[case.data] if m not in case.models]
+    wait = f"; not run yet: {', '.join(missing)}" if missing else ""
+    lines = [f"# The {names} on {case.data} ({mode}{wait})", ""]
     for a, b in case.factors_run:
         log_b, err = case.log_bayes(a, b)
         lines.append(f"log Bayes factor {a} over {b}: {log_b:.2f} +- {err:.2f}\n")

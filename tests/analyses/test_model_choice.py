@@ -234,3 +234,12 @@ def test_the_figure_title_names_the_models_not_run_yet(record, tmp_path):
     assert title == (
         "joint: the mirror model against the paper's 11 parameters (the scale model not run yet) (quick run)"
     )
+
+
+def test_the_summary_of_a_data_set_names_its_models_and_those_not_run_yet(stage, record):
+    case = record.cases["T1"]
+    assert stage._summary(case, "full").startswith("# The mirror and full models on T1 (full)\n")
+    joint = MC.DataChoice(data="joint", seed=MC.STAGE_SEED + 20, models={"mirror": case.models["mirror"]})
+    text = stage._summary(joint, "full")
+    assert text.startswith("# The mirror model on joint (full; not run yet: full, scale)\n")
+    assert "log Bayes factor" not in text
