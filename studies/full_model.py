@@ -161,8 +161,7 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, 
 def _summary(case: DataChoice, mode: str) -> str:
     *first, last = case.models
     names = f"{', '.join(first)} and {last} models" if first else f"{last} model"
-    missing = [m for m in CANDIDATES[case.data] if m not in case.models]
-    wait = f"; not run yet: {', '.join(missing)}" if missing else ""
+    wait = f"; not run yet: {', '.join(case.missing)}" if case.missing else ""
     lines = [f"# The {names} on {case.data} ({mode}{wait})", ""]
     for a, b in case.factors_run:
         log_b, err = case.log_bayes(a, b)

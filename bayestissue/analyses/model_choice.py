@@ -34,7 +34,7 @@ import numpy as np
 
 from bayestissue.analyses.box_width import BoxShift, box_shift
 from bayestissue.analyses.verdicts import evidence_consistent
-from bayestissue.io.results import source_files
+from bayestissue.io.results import hash_sources
 from bayestissue.paper import MIRROR_TIES
 
 __all__ = [
@@ -116,10 +116,7 @@ SETTINGS = {
 def numbers_hash(data_files, settings: str = "") -> str:
     """SHA-256 (first 16 hex digits) over the source files of :data:`SOURCES`, the bytes of ``data_files`` and the
     run's ``settings`` text: it changes with anything the stage's numbers depend on."""
-    package = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
-    for f in source_files(SOURCES):
-        h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    h = hash_sources(hashlib.sha256(), SOURCES)
     for f in data_files:
         h.update(Path(f).name.encode() + b"\0" + Path(f).read_bytes() + b"\0")
     h.update(settings.encode())
@@ -207,6 +204,11 @@ class DataChoice:
     def factors(self) -> tuple[tuple[str, str], ...]:
         """The (numerator, denominator) pairs this data set reports (:data:`FACTORS`)."""
         return FACTORS[self.data]
+
+    @property
+    def missing(self) -> list[str]:
+        """The data set's candidate models (:data:`CANDIDATES`) not run yet, in seed order."""
+        return [m for m in CANDIDATES[self.data] if m not in self.models]
 
     @property
     def factors_run(self) -> tuple[tuple[str, str], ...]:

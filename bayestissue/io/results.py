@@ -22,6 +22,7 @@ __all__ = [
     "package_sha256",
     "RUN_SOURCES",
     "source_files",
+    "hash_sources",
     "read_config",
     "provenance",
     "write_inference_data",
@@ -59,11 +60,16 @@ def package_sha256(package: str | Path | None = None, parts: Iterable[str] | Non
     """Hex SHA-256 over source files of the package (relative path and bytes; :func:`source_files` of ``parts``,
     by default :data:`RUN_SOURCES`; ``parts=None``: every source file): changes with any change of that code, and
     only then."""
+    return hash_sources(hashlib.sha256(), parts, package).hexdigest()
+
+
+def hash_sources(h, parts: Iterable[str] | None = None, package: str | Path | None = None):
+    """Feed each of :func:`source_files` (``parts``; every file when None) to the hash object ``h`` as its path
+    relative to the package, a NUL, its bytes and a NUL; returns ``h`` (to go on with other inputs)."""
     package = Path(__file__).resolve().parents[1] if package is None else Path(package)
-    h = hashlib.sha256()
     for f in source_files(parts, package):
         h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
-    return h.hexdigest()
+    return h
 
 
 def read_config(path: str | Path | None) -> dict:

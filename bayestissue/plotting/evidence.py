@@ -70,8 +70,7 @@ PAIR_WORDS = {("mirror", "full"): "the mirror model against the paper's 11 param
 def _title(case) -> str:
     """The factors the figure shows, and the models of the data set not run yet (they run in separate sessions)."""
     shown = [PAIR_WORDS.get((a, b), f"{a} against {b}") for a, b in case.factors_run]
-    missing = [m for pair in case.factors for m in pair if m not in case.models]
-    missing = list(dict.fromkeys(missing))
+    missing = case.missing
     if not missing:
         return ", and ".join(shown)
     wait = f"the {' and '.join(missing)} {'model' if len(missing) == 1 else 'models'} not run yet"
