@@ -41,6 +41,7 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
     current_hash,
     current_hashes,
     model_evidence,
+    model_settings,
 )
 from bayestissue.analyses.records import FILES  # noqa: E402
 from bayestissue.inference import NestedOptions, fit_least_squares, fit_multistart, sample_nested  # noqa: E402
@@ -139,10 +140,12 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, 
             continue
         cache = ROOT / ".cache" / "model_choice" / key
         problem = _problem(data, model)
-        opts = NestedOptions(**settings[model], scheduler=settings["scheduler"], n_processes=n_workers,
-                             report_every=50_000)  # fmt: skip
+        opts = NestedOptions(**model_settings(mode, data, model), scheduler=settings["scheduler"],
+                             n_processes=n_workers, report_every=50_000)  # fmt: skip
+        steps = opts.slice_steps or 2 * problem.ndim
         print(f"[full model] {data}, {model} model ({problem.ndim} sampled): {opts.n_runs} {opts.sampler} runs of "
-              f"{opts.n_live} live points on {settings['scheduler'] or 'forked processes'} ({n_workers} workers); "
+              f"{opts.n_live} live points ({steps} slice steps) on {settings['scheduler'] or 'forked processes'} "
+              f"({n_workers} workers); "
               f"checkpoints in {cache}", flush=True)  # fmt: skip
         t0 = time.perf_counter()
         # a killed --full run resumes its finished points; a capped --quick run starts afresh (a resumed capped run

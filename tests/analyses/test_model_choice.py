@@ -55,6 +55,21 @@ def test_the_hash_follows_the_data_and_the_settings(tmp_path):
         assert MC.current_hash("full", ROOT / "data", "T1", "full") == full["full"]
 
 
+def test_a_data_set_override_changes_that_data_set_only(stage):
+    """OVERRIDES: the joint models take 4 slice steps per sampled dimension under --full; T1 and T2 keep SETTINGS
+    (their hashes are those of the settings without an override), and --quick has none."""
+    for model, over in MC.OVERRIDES["full", "joint"].items():
+        assert over["slice_steps"] == 4 * stage._problem("joint", model).ndim
+        assert MC.model_settings("full", "joint", model) == {**MC.SETTINGS["full"][model], **over}
+        assert MC.model_settings("quick", "joint", model) == MC.SETTINGS["quick"][model]
+    for data in ("T1", "T2"):
+        assert MC.model_settings("full", data, "mirror") == MC.SETTINGS["full"]["mirror"]
+    with pytest.MonkeyPatch.context() as mp:
+        before = MC.current_hash("full", ROOT / "data", "joint", "mirror")
+        mp.setattr(MC, "OVERRIDES", {})
+        assert MC.current_hash("full", ROOT / "data", "joint", "mirror") != before
+
+
 def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
     """model_evidence on a stand-in sample: runs in order, merged values, quantiles mapped by the prior's to_unit."""
     points = np.array([[0.5, 2.0], [500.0, 3.0]])  # the first inside the narrowed box [0.1, 100] of "a", the second not
