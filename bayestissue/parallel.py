@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import logging
+import math
 import os
 import pickle
 import tempfile
@@ -48,6 +49,7 @@ __all__ = [
     "fan_out",
     "is_run_target",
     "is_scheduler_address",
+    "projected_wall_time",
     "start_client",
 ]
 
@@ -323,3 +325,14 @@ def fan_out(
             client.close()
             cluster.close()
     return results
+
+
+def projected_wall_time(n_tasks: int, t_task: float, n_workers: int, t_start: float = 0.0) -> float:
+    r"""Wall time of ``n_tasks`` independent tasks of mean time ``t_task`` on ``n_workers`` workers when no task is
+    split: the start-up plus the longest chain of tasks one worker gets,
+
+    .. math:: t(W) \approx t_\text{start} + \lceil R / W \rceil \, \bar t_\text{task}
+
+    (beyond W = R workers only more tasks use the cores; docs/cluster.md). ``t_task`` should be measured with every
+    worker busy: tasks sharing a machine slow each other."""
+    return t_start + math.ceil(n_tasks / n_workers) * t_task

@@ -19,7 +19,6 @@ and t_start the excess of the 1-worker wall time over the sum of its run times; 
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import time
 from pathlib import Path
@@ -31,6 +30,7 @@ import numpy as np  # noqa: E402
 from bayestissue.inference import NestedOptions, sample_nested  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.paper import MIRROR_TIES  # noqa: E402
+from bayestissue.parallel import projected_wall_time  # noqa: E402
 from bayestissue.workflows import load_config  # noqa: E402
 from bayestissue.workflows.problem import build_problem  # noqa: E402
 
@@ -92,7 +92,7 @@ def main(argv=None) -> None:
         t_start = max(w1[0] - sum(w1[1]), 0.0)
         print(f"  mean run time alone {t_alone:.1f} s, beside {w_max - 1} other(s) {t_run:.1f} s "
               f"({t_run / t_alone:.2f}x: runs sharing this machine)")  # fmt: skip
-        proj = ", ".join(f"{w} workers {t_start + math.ceil(args.runs / w) * t_run:.0f} s" for w in (4, 16, 64))
+        proj = ", ".join(f"{w} workers {projected_wall_time(args.runs, t_run, w, t_start):.0f} s" for w in (4, 16, 64))
         print(f"  projected for {args.runs} runs (t_start {t_start:.1f} s + ceil(R/W) x t_run {t_run:.1f} s): {proj}; "
               f"R = W runs take the same wall time for W times the draws")  # fmt: skip
 

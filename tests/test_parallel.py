@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from bayestissue._validation import ValidationError
-from bayestissue.parallel import ResultCache, fan_out, start_client, task_key
+from bayestissue.parallel import ResultCache, fan_out, projected_wall_time, start_client, task_key
 
 # the workers cannot import this test module: ship its functions by value
 cloudpickle.register_pickle_by_value(sys.modules[__name__])
@@ -163,3 +163,8 @@ def test_bad_client_and_scheduler_are_rejected(tmp_path):
         start_client("localhost")
     with pytest.raises(ValidationError, match="n_workers"):
         start_client(n_workers=0)
+
+
+def test_the_projected_wall_time_is_the_longest_chain_of_tasks_one_worker_gets():
+    assert [projected_wall_time(4, 10.0, w) for w in (1, 2, 3, 4, 64)] == [40.0, 20.0, 20.0, 10.0, 10.0]
+    assert projected_wall_time(5, 10.0, 2, t_start=3.0) == 33.0

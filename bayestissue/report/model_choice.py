@@ -6,8 +6,6 @@ parameters (on the joint data set also of a T2 stiffness scale over shared param
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
@@ -15,6 +13,7 @@ from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord
 from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import EVIDENCE_MIN_RUNS, EVIDENCE_P, evidence_decides, evidence_strength
 from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS
+from bayestissue.parallel import projected_wall_time
 
 __all__ = ["EDGE_SHARE", "PROJECTED_WORKERS", "model_choice_context"]
 
@@ -50,11 +49,11 @@ def _edges(e) -> list[str]:
 
 
 def _projection(e) -> dict[int, float]:
-    r"""Wall time (s) of ``e``'s runs on W workers, :math:`\lceil R / W \rceil \bar t_{run}` for W in
+    r"""Wall time (s) of ``e``'s runs on W workers (:func:`~bayestissue.parallel.projected_wall_time`) for W in
     :data:`PROJECTED_WORKERS`: the runs are independent tasks and none is split (docs/cluster.md), and
     :math:`\bar t_{run}` is their mean time as measured here, beside the other runs of the record (a little above a
     run's time alone, so W = 1 is an upper estimate)."""
-    return {w: math.ceil(len(e.time_s) / w) * float(np.mean(e.time_s)) for w in PROJECTED_WORKERS}
+    return {w: projected_wall_time(len(e.time_s), float(np.mean(e.time_s)), w) for w in PROJECTED_WORKERS}
 
 
 def _factor(case: DataChoice, a: str, b: str) -> dict:
