@@ -25,7 +25,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import matplotlib  # noqa: E402
 import numpy as np  # noqa: E402
-from scipy.optimize import minimize  # noqa: E402
 
 matplotlib.use("Agg")
 
@@ -46,7 +45,7 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
 from bayestissue.analyses.records import FILES  # noqa: E402
 from bayestissue.inference import NestedOptions, fit_least_squares, fit_multistart, sample_nested  # noqa: E402
 from bayestissue.inference.evidence import assess_nested  # noqa: E402
-from bayestissue.inference.sampling.nested import nested_target, peak_log_likelihood  # noqa: E402
+from bayestissue.inference.sampling.peak import peak_reference  # noqa: E402
 from bayestissue.io.records import read_record, write_record  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.evidence import plot_model_choice  # noqa: E402
@@ -56,8 +55,6 @@ from bayestissue.workflows.problem import build_problem  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 #: Random least-squares starts besides the paper's, for the peak check's reference (``fit``'s default is 8).
 LS_STARTS = {"quick": 0, "full": 8}
-#: Likelihood evaluations per local search of :func:`_polish` (each of its two).
-POLISH_EVALUATIONS = 4000
 
 
 def _progress(name: str, seconds: float = 60.0):
@@ -80,44 +77,17 @@ def _problem(data: str, model: str):
     return build_problem(experiments, load_config(None, **CANDIDATES[data][model]))
 
 
-def _polish(problem, options: NestedOptions, theta) -> float:
-    """The runs' log-likelihood (:func:`~bayestissue.inference.sampling.nested.nested_target`: noise integrated out)
-    climbed from ``theta`` by a local search in box coordinates (Nelder-Mead, then Powell within the box; at most
-    :data:`POLISH_EVALUATIONS` evaluations each). Least squares minimises the summed squared residuals of all tests
-    in their own units, not this likelihood, whose per-test term is -n_i/2 ln SSR_i: on one test the two optima
-    coincide (T1 mirror: to 1e-8), on T1 + T2 the least-squares optimum lies 515 nats below the likelihood's local
-    peak (2026-11-29), which made the peak check unable to fail there."""
-    n, _, log_l, _ = nested_target(problem, options)
-    box = problem.material
-
-    def minus_log_l(u):
-        return -float(log_l(box.from_unit(np.clip(u, 0.0, 1.0))[None, :])[0])
-
-    u = box.to_unit(np.asarray(theta, dtype=float)[:n])
-    r = minimize(minus_log_l, u, method="Nelder-Mead",
-                 options={"maxfev": POLISH_EVALUATIONS, "xatol": 1e-8, "fatol": 1e-6, "adaptive": True})  # fmt: skip
-    r = minimize(minus_log_l, np.clip(r.x, 0.0, 1.0), method="Powell", bounds=[(0.0, 1.0)] * n,
-                 options={"maxfev": POLISH_EVALUATIONS, "xtol": 1e-8, "ftol": 1e-10})  # fmt: skip
-    return -float(r.fun)
-
-
 def _peak(problem, options: NestedOptions, seed: int, n_starts: int) -> float:
-    """The peak check's reference (:func:`~bayestissue.inference.evidence.assess_nested`): the largest of the runs'
-    log-likelihood at the least-squares optima (the paper's start and the best of ``n_starts`` random ones, as
-    ``fit`` does; with their plug-in noise sds) and climbed from each of them (:func:`_polish`)."""
+    """The peak check's reference (:func:`~bayestissue.inference.sampling.peak.peak_reference`) from the least-squares
+    optima of the paper's start and of the best of ``n_starts`` random ones, as ``fit`` does."""
     t0 = time.perf_counter()
     fits = [fit_least_squares(problem)]
     if n_starts:
         fits.append(fit_multistart(problem, n_starts=n_starts, rng=np.random.default_rng(seed), space="unit").best)
-    at_ls, polished = [], []
-    for fit in fits:
-        theta = problem.nuisance_estimate(fit.x)
-        at_ls.append(peak_log_likelihood(problem, options, theta))
-        polished.append(_polish(problem, options, theta))
-    print(f"[full model] least squares: costs {', '.join(f'{f.cost:.6g}' for f in fits)}, log-likelihood there "
-          f"{', '.join(f'{v:.2f}' for v in at_ls)}, climbed to {', '.join(f'{v:.2f}' for v in polished)} "
+    peak = peak_reference(problem, options, [problem.nuisance_estimate(f.x) for f in fits])
+    print(f"[full model] least squares: costs {', '.join(f'{f.cost:.6g}' for f in fits)}; {peak.text()} "
           f"({time.perf_counter() - t0:.0f} s)", flush=True)  # fmt: skip
-    return max(at_ls + polished)
+    return peak.value
 
 
 def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, save) -> DataChoice:

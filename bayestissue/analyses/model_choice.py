@@ -54,12 +54,6 @@ __all__ = [
     "numbers_hash",
 ]
 
-#: How the engine's verdict names its peak reference, and how the record names the stage's (studies/full_model.py
-#: climbs the runs' likelihood from the least-squares optima, which on the joint data set lie far below its peak).
-PEAK_WORDS = (
-    "the least-squares optimum's log-likelihood",
-    "the likelihood's peak climbed from the least-squares optima",
-)
 #: The parts of the package the likelihood and the samplers are made of (a change elsewhere, e.g. in the report,
 #: leaves the numbers as they are).
 SOURCES = ("mechanics", "inference", "workflows", "paper.py", "_validation.py")
@@ -156,8 +150,8 @@ class ModelEvidence:
     """One model's nested runs on one data set.
 
     Per run: ``log_z`` and its own error, likelihood calls, seconds, finished (not capped), ``max_log_l`` (its
-    largest log-likelihood) and ``peak_reached`` (that within d/2 of ``reference_log_l``, the least-squares
-    optimum's log-likelihood under the runs' likelihood: the engine's peak check,
+    largest log-likelihood) and ``peak_reached`` (that within d/2 of ``reference_log_l``, the runs' likelihood
+    climbed from the least-squares optima, :mod:`~bayestissue.inference.sampling.peak`: the engine's peak check,
     :attr:`~bayestissue.inference.evidence.NestedReport.short_of_peak`). ``log_z_p``: the p-value of the runs' log Z
     scatter against their own errors (:attr:`~bayestissue.inference.evidence.NestedReport.log_z_p`). ``merged`` is
     the merged runs' (log Z, error). ``quantiles[j]`` the 5 / 50 / 95 % quantiles of sampled parameter
@@ -291,8 +285,7 @@ def model_evidence(model: str, sample, report, options, wall_s: float, key: str)
         log_z_p=float(report.log_z_p),
         merged=(sample.log_z, sample.log_z_err),
         converged=report.converged,
-        # the engine names its reference "the least-squares optimum's"; the stage's is climbed from there
-        verdict=report.verdict().replace(PEAK_WORDS[0], PEAK_WORDS[1]),
+        verdict=report.verdict(),
         rhat_max=float(np.nanmax(report.rhat)) if np.any(np.isfinite(report.rhat)) else float("nan"),
         quantiles=q.tolist(),
         quantile_errors=report.quantile_errors().tolist(),

@@ -26,8 +26,9 @@ The evidence: the runs' :math:`\\log\\hat Z_k` must agree with their own errors 
 :math:`n - 1` degrees of freedom, p-value at least 0.01, and their range below 0.2.
 
 The peak: nested sampling compresses the prior towards the likelihood's peak shell by shell, and a run whose
-bounds lose the peak region can end with a consistent-looking but wrong answer. Where a least-squares optimum is
-known, every run's largest log-likelihood must come within :math:`d/2` of it (``reference_log_l``; :math:`d` the
+bounds lose the peak region can end with a consistent-looking but wrong answer. Where the peak is known (the runs'
+likelihood climbed from the least-squares optima, :mod:`~bayestissue.inference.sampling.peak`), every run's largest
+log-likelihood must come within :math:`d/2` of it (``reference_log_l``; :math:`d` the
 number of sampled parameters: posterior draws of a :math:`d`-dimensional Gaussian lie about :math:`d/2` below the
 peak, the best of thousands much closer).
 
@@ -270,7 +271,7 @@ class NestedReport(ParameterChecks):
         if np.any(self.short_of_peak):
             lines.append(
                 f"runs {np.flatnonzero(self.short_of_peak).tolist()} never came within d/2 = {0.5 * len(self.names):g} "
-                f"of the least-squares optimum's log-likelihood {self.reference_log_l:.1f} (best "
+                f"of the likelihood's peak climbed from the least-squares optima {self.reference_log_l:.1f} (best "
                 f"{', '.join(f'{v:.1f}' for v in self.max_log_l)}): they missed the peak"
             )
         bad = [n for n, r in zip(self.names, self.rhat, strict=True) if not r < self.rhat_max]

@@ -47,7 +47,8 @@ from bayestissue.inference.coordinates import adapt_coordinates
 from bayestissue.inference.engine_check import compare_samples
 from bayestissue.inference.fit_check import fit_check, fit_check_text
 from bayestissue.inference.posterior import evenly, to_inference_data
-from bayestissue.inference.sampling.nested import RunPhases, peak_log_likelihood
+from bayestissue.inference.sampling.nested import RunPhases
+from bayestissue.inference.sampling.peak import peak_reference
 from bayestissue.inference.summary import summary_table, table_markdown
 from bayestissue.workflows.config import CalibrationConfig
 from bayestissue.workflows.constraints import ConstraintTest, constraint_test
@@ -162,8 +163,11 @@ def run_calibration(
             problem, options=config.nested, checkpoint=ckpt, resume=resume, progress=progress, rng=rng
         )
         times["sampling"] = time.perf_counter() - t0
-        peak = peak_log_likelihood(problem, config.nested, problem.nuisance_estimate(best.x))
-        report = assess_nested(sample, reference_log_l=peak)
+        t0 = time.perf_counter()
+        peak = peak_reference(problem, config.nested, [problem.nuisance_estimate(f.x) for f in (paper_fit, multi.best)])
+        times["peak_reference"] = time.perf_counter() - t0
+        say(f"peak check: {peak.text()}")
+        report = assess_nested(sample, reference_log_l=peak.value)
         engine_attrs = {}
     else:
         t0 = time.perf_counter()

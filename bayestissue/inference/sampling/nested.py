@@ -60,7 +60,6 @@ __all__ = [
     "NestedSample",
     "RunPhases",
     "nested_target",
-    "peak_log_likelihood",
     "sample_nested",
 ]
 
@@ -298,14 +297,6 @@ def nested_target(problem: CalibrationProblem, options: NestedOptions):
         return np.asarray(x, dtype=float)
 
     return problem.ndim, problem.parameters.from_prior_quantiles, log_l, identity
-
-
-def peak_log_likelihood(problem: CalibrationProblem, options: NestedOptions, theta) -> float:
-    """The runs' log-likelihood at a full ``theta`` (e.g. the least-squares optimum with its plug-in noise), for
-    :func:`~bayestissue.inference.evidence.assess_nested`'s peak check."""
-    theta = np.asarray(theta, dtype=float)
-    n_dim, _, log_l, _ = nested_target(problem, options)
-    return float(log_l(theta[None, :n_dim])[0])
 
 
 def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> NestedRun:
