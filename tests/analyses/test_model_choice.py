@@ -123,6 +123,7 @@ def test_the_default_study_reads_the_committed_record_and_says_whether_it_is_cur
     assert f"T1, mirror model, code and data {now['T1', 'mirror']}): matches the current code" in printed
     assert f"T2, mirror model, code and data {now['T2', 'mirror']}): matches the current code" in printed
     assert f"T2, full model, code and data {'0' * 16}): STALE, the current code is {now['T2', 'full']}" in printed
+    assert "(rerun: python studies/full_model.py --full --data T2 --models full)" in printed
 
 
 def test_a_full_rerun_keeps_the_models_whose_runs_match_the_current_code(stage, record, monkeypatch, capsys):

@@ -242,6 +242,7 @@ def test_the_model_choice_follows_the_runs_agreement_on_the_evidence_and_the_cod
     row, text = render(True, shift=2.0)  # ln B = 2 +- 0.14: positive for the mirror model
     assert "| T1: **mirror** | T1: ln B mirror over full 2.00 +- 0.14 (positive)" in row
     assert "**stale**: the mirror model's runs belong to other code" in text
+    assert "(rerun `python studies/full_model.py --full --data T1 --models mirror`, which reruns only those)" in text
     row, _ = render(True, shift=-4.0)
     assert "| T1: **full** | T1: ln B mirror over full -4.00 +- 0.14 (strong)" in row
     assert "| agree (scatter p = 0.5) | NOT CONVERGED |" in text
