@@ -183,12 +183,9 @@ def _read_back(path: Path) -> int:
     for data, case in rec.cases.items():
         for model, e in case.models.items():
             current = now[data][model]
-            state = (
-                "matches the current code"
-                if current == e.numbers_hash
-                else f"STALE, the current code is "
-                f"{current} (rerun: python studies/full_model.py --full --data {data} --models {model})"
-            )
+            rerun = f"python studies/full_model.py --full --data {data} --models {model}"
+            stale = f"STALE, the current code is {current} (rerun: {rerun})"
+            state = "matches the current code" if current == e.numbers_hash else stale
             print(
                 f"[full model] read {path} ({rec.mode}, {data}, {model} model, code and data {e.numbers_hash}): {state}"
             )
