@@ -45,7 +45,9 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
 from bayestissue.analyses.records import FILES  # noqa: E402
 from bayestissue.inference import NestedOptions, fit_least_squares, fit_multistart, sample_nested  # noqa: E402
 from bayestissue.inference.evidence import assess_nested  # noqa: E402
+from bayestissue.inference.sampling.nested import nested_target  # noqa: E402
 from bayestissue.inference.sampling.peak import peak_reference  # noqa: E402
+from bayestissue.inference.sampling.ultranest_run import slice_steps  # noqa: E402
 from bayestissue.io.records import read_record, write_record  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.evidence import plot_model_choice  # noqa: E402
@@ -112,11 +114,11 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, 
         problem = _problem(data, model)
         opts = NestedOptions(**model_settings(mode, data, model), scheduler=settings["scheduler"],
                              n_processes=n_workers, report_every=50_000)  # fmt: skip
-        steps = opts.slice_steps or 2 * problem.ndim
-        print(f"[full model] {data}, {model} model ({problem.ndim} sampled): {opts.n_runs} {opts.sampler} runs of "
-              f"{opts.n_live} live points ({steps} slice steps) on {settings['scheduler'] or 'forked processes'} "
-              f"({n_workers} workers); "
-              f"checkpoints in {cache}", flush=True)  # fmt: skip
+        n_dim = nested_target(problem, opts)[0]
+        print(f"[full model] {data}, {model} model ({n_dim} sampled, {problem.ndim - n_dim} noise sds integrated out): "
+              f"{opts.n_runs} {opts.sampler} runs of {opts.n_live} live points ({slice_steps(opts, n_dim)} slice "
+              f"steps) on {settings['scheduler'] or 'forked processes'} ({n_workers} workers); checkpoints in {cache}",
+              flush=True)  # fmt: skip
         t0 = time.perf_counter()
         # a killed --full run resumes its finished points; a capped --quick run starts afresh (a resumed capped run
         # goes on past its cap and would not repeat itself)

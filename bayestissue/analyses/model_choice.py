@@ -108,9 +108,10 @@ SETTINGS = {
 }  # fmt: skip
 #: Settings one data set changes under a mode, merged over :data:`SETTINGS` by :func:`model_settings` (so that the
 #: other data sets' settings and hashes stay as they were). On T1 + T2 the mirror model's 4 runs with UltraNest's
-#: default 2 x d slice steps disagreed on the evidence (log Z 909.76-915.43, scatter p = 2e-17) and every run failed
-#: the insertion-order test (2026-11-27), whose remedy is more steps per new point: 4 x d for every joint model
-#: (mirror d = 10, full 13, scale 11; tested against the problems' dimensions).
+#: default two slice steps per sampled dimension (16: the runs sample 8, the two noise sds are integrated out)
+#: disagreed on the evidence (log Z 909.76-915.43, scatter p = 2e-17) and every run failed the insertion-order test
+#: (2026-11-27), whose remedy is more steps per new point: 4 per parameter of each joint model, sds included
+#: (mirror 10, full 13, scale 11; tested), i.e. 5.0, 4.7 and 4.9 per sampled dimension (8, 11, 9).
 OVERRIDES = {
     ("full", "joint"): {"mirror": {"slice_steps": 40}, "full": {"slice_steps": 52}, "scale": {"slice_steps": 44}},
 }

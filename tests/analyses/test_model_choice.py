@@ -14,6 +14,9 @@ import pytest
 
 from bayestissue.analyses import model_choice as MC
 from bayestissue.analyses.records import FILES
+from bayestissue.inference import NestedOptions
+from bayestissue.inference.sampling.nested import nested_target
+from bayestissue.inference.sampling.ultranest_run import slice_steps
 from bayestissue.io.records import read_record, write_record
 from bayestissue.plotting.evidence import plot_model_choice
 
@@ -54,10 +57,15 @@ def test_the_hash_follows_the_data_and_the_settings(tmp_path):
 
 
 def test_a_data_set_override_changes_that_data_set_only(stage):
-    """OVERRIDES: the joint models take 4 slice steps per sampled dimension under --full; T1 and T2 keep SETTINGS
-    (their hashes are those of the settings without an override), and --quick has none."""
+    """OVERRIDES: the joint models take 4 slice steps per parameter (sds included) under --full, at least 4 per
+    dimension the runs sample (twice UltraNest's default); T1 and T2 keep SETTINGS (their hashes are those of the
+    settings without an override), and --quick has none."""
     for model, over in MC.OVERRIDES["full", "joint"].items():
-        assert over["slice_steps"] == 4 * stage._problem("joint", model).ndim
+        problem = stage._problem("joint", model)
+        opts = NestedOptions(**MC.model_settings("full", "joint", model))
+        n_dim = nested_target(problem, opts)[0]
+        assert over["slice_steps"] == 4 * problem.ndim and n_dim == problem.ndim - 2
+        assert slice_steps(opts, n_dim) == over["slice_steps"] >= 2 * slice_steps(NestedOptions(), n_dim)
         assert MC.model_settings("full", "joint", model) == {**MC.SETTINGS["full"][model], **over}
         assert MC.model_settings("quick", "joint", model) == MC.SETTINGS["quick"][model]
     for data in ("T1", "T2"):

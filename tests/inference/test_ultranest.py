@@ -101,6 +101,18 @@ def test_capped_run_resumes_from_its_directory(tmp_path):
     assert abs(resumed.log_z - fresh.log_z) < 4 * np.hypot(resumed.log_z_err, fresh.log_z_err)
 
 
+def test_each_run_of_one_process_logs_into_its_own_directory(tmp_path):
+    """UltraNest registers its log handlers once per process; two runs in one process (``n_processes=1``) each write
+    their own ``debug.log`` (before, the second run's lines went into the first run's file)."""
+    problem, _ = linear_gaussian_problem(n_obs=20, n_params=2, sd=0.1, box=20.0, rng=2)
+    sample_nested(problem, options=NestedOptions(**ULTRA, n_runs=2, n_processes=1), checkpoint=tmp_path, rng=5)
+    logs = [tmp_path / f"nested_{k}" / "debug.log" for k in range(2)]
+    assert all(f.is_file() for f in logs)
+    for f in logs:
+        text = f.read_text()
+        assert text.count("ReactiveNestedSampler: dims=") == 1 and str(f.parent) in text, f
+
+
 def test_inference_data_names_the_sampler_and_carries_the_insertion_test(linear_run, tmp_path):
     from bayestissue.io.results import read_inference_data
 

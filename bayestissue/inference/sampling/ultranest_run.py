@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import logsumexp
 
-__all__ = ["run_ultranest"]
+__all__ = ["run_ultranest", "slice_steps"]
 
 #: stand-in for log L = -inf (UltraNest's own choice for non-finite values)
 _FLOOR = -1e100
@@ -50,6 +50,22 @@ _FLOOR = -1e100
 _N_BOOT = 100
 #: iterations per expected 4-sigma alarm of the insertion test in an unbiased run (Buchner 2023, sec. 4.5.2)
 _QUIET_ITERATIONS = 10**5.5
+
+
+def slice_steps(options, n_dim: int) -> int:
+    """Slice steps of each new point: ``options.slice_steps``, or two per sampled dimension ``n_dim``
+    (:func:`~.nested.nested_target`'s: without the noise sds where they are integrated out)."""
+    return options.slice_steps or 2 * n_dim
+
+
+def _own_log() -> None:
+    """UltraNest registers its handlers once per process (``ultranest.utils.create_logger``), so a worker's later
+    runs would write into its first run's ``debug.log``: close and drop them before each run, so that each run's
+    log goes to its own directory."""
+    logger = logging.getLogger("ultranest")
+    for h in list(logger.handlers):
+        logger.removeHandler(h)
+        h.close()
 
 
 def _quiet() -> None:
@@ -85,6 +101,7 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
     saved = np.random.get_state()  # noqa: NPY002 (UltraNest draws from the global state)
     np.random.seed(int(seed) % 2**32)  # noqa: NPY002
     t0 = time.perf_counter()
+    _own_log()
     try:
         sampler = ultranest.ReactiveNestedSampler(
             [f"x{j}" for j in range(n_dim)],
@@ -99,7 +116,7 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
         _quiet()
         sampler.stepsampler = popstepsampler.PopulationSliceSampler(
             popsize=options.population,
-            nsteps=options.slice_steps or 2 * n_dim,
+            nsteps=slice_steps(options, n_dim),
             generate_direction=popstepsampler.generate_region_oriented_direction,
         )
         result = sampler.run(
