@@ -40,6 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bayestissue.inference.diagnostics import runs_mean_error
+
 __all__ = ["FACTOR", "BoxShift", "box_shift", "merge_runs"]
 
 #: every log-scaled box narrowed or widened by this factor at each end (issue 36)
@@ -66,13 +68,10 @@ class BoxShift:
 
 
 def merge_runs(values, errors) -> tuple[float, float]:
-    """Mean of per-run estimates and its error: the larger of the own errors combined over ``n`` and the scatter
-    over :math:`\\sqrt n` (the evidence's rule, :attr:`~bayestissue.inference.sampling.NestedSample.log_z_err`);
-    NaN own errors count as zero."""
-    v, e = np.asarray(values, dtype=float), np.nan_to_num(np.asarray(errors, dtype=float))
-    own = float(np.sqrt(np.sum(e**2)) / v.size)
-    scatter = float(v.std(ddof=1) / np.sqrt(v.size)) if v.size > 1 else 0.0
-    return float(v.mean()), max(own, scatter)
+    """Mean of per-run estimates and its error (:func:`~bayestissue.inference.diagnostics.runs_mean_error`, the
+    evidence's rule); NaN own errors count as zero."""
+    v = np.asarray(values, dtype=float)
+    return float(v.mean()), float(runs_mean_error(v, np.nan_to_num(np.asarray(errors, dtype=float))))
 
 
 def _log_share(inside: np.ndarray, w: np.ndarray, reps: np.ndarray | None) -> tuple[float, float]:

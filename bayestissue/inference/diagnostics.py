@@ -38,6 +38,7 @@ from scipy.stats import rankdata
 from bayestissue._validation import ValidationError
 
 __all__ = [
+    "runs_mean_error",
     "import_arviz",
     "rhat_ensembles",
     "ess_walkers",
@@ -316,3 +317,15 @@ def quantile_mcse(draws, ess_bulk, ess_tail, levels=(0.05, 0.5, 0.95)) -> np.nda
             lo, hi = np.quantile(x[:, j], [max(p - s, 0.0), min(p + s, 1.0)])
             out[j, k] = 0.5 * (hi - lo)
     return out
+
+
+def runs_mean_error(values, errors) -> np.ndarray:
+    """Monte Carlo error of the mean of :math:`n` independent runs' estimates ``values`` (runs along axis 0) with
+    their own errors ``errors`` (same shape): the larger of the own errors combined,
+    :math:`\\sqrt{\\sum_k \\sigma_k^2}/n`, and the runs' scatter over :math:`\\sqrt n`, :math:`s/\\sqrt n` (one
+    run: its own error). Runs that agree are judged by their own errors; runs that scatter more, by the scatter."""
+    v, e = np.asarray(values, dtype=float), np.asarray(errors, dtype=float)
+    n = v.shape[0]
+    own = np.sqrt(np.sum(e**2, axis=0)) / n
+    scatter = v.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else 0.0
+    return np.maximum(own, scatter)

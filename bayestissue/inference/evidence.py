@@ -62,7 +62,7 @@ import numpy as np
 from scipy.special import ndtri
 from scipy.stats import chi2
 
-from bayestissue.inference.diagnostics import ParameterChecks, rhat_ensembles
+from bayestissue.inference.diagnostics import ParameterChecks, rhat_ensembles, runs_mean_error
 
 __all__ = ["NestedReport", "assess_nested", "quantile_errors", "weighted_ess", "weighted_quantile"]
 
@@ -204,10 +204,7 @@ class NestedReport(ParameterChecks):
     @property
     def quantile_mc_error(self) -> np.ndarray:
         """``(ndim, len(LEVELS))`` Monte Carlo error of the pooled quantiles (module docstring)."""
-        n = self.q_runs.shape[0]
-        own = np.sqrt(np.sum(self.q_errs**2, axis=0)) / n
-        scatter = self.q_runs.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else 0.0
-        return np.maximum(own, scatter)
+        return runs_mean_error(self.q_runs, self.q_errs)
 
     def _quantile_clause(self) -> str:
         """The quantities whose run-to-run scatter exceeds the runs' own errors, worst first (at most three)."""

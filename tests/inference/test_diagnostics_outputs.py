@@ -13,6 +13,7 @@ from bayestissue.inference.diagnostics import (
     ess_walkers,
     import_arviz,
     rhat_ensembles,
+    runs_mean_error,
 )
 from bayestissue.inference.posterior import to_inference_data
 from bayestissue.inference.summary import generating_fit, summary_table, table_markdown
@@ -199,3 +200,13 @@ def test_quantile_mcse_of_independent_normal_draws():
     got = quantile_mcse(x, n, n)
     expect = np.array([np.sqrt(p * (1 - p)) / norm.pdf(norm.ppf(p)) for p in (0.05, 0.5, 0.95)])
     np.testing.assert_allclose(got * np.sqrt(n)[:, None], np.tile(expect, (2, 1)), rtol=0.06)
+
+
+def test_runs_mean_error_takes_the_own_errors_or_the_scatter_whichever_is_larger():
+    """sqrt(sum sigma_k^2) / n where the runs agree (4 runs of error 0.2 within 0.01: 0.1), s / sqrt(n) where they
+    scatter (values 0, 1, 2, 3: s = 1.291, / 2 = 0.645); per column for quantile arrays; one run: its own error."""
+    assert runs_mean_error([1.0, 1.01, 0.99, 1.0], [0.2] * 4) == pytest.approx(0.1)
+    assert runs_mean_error([0.0, 1.0, 2.0, 3.0], [0.2] * 4) == pytest.approx(np.sqrt(5.0 / 3.0) / 2.0)
+    both = runs_mean_error(np.array([[1.0, 0.0], [1.01, 1.0], [0.99, 2.0], [1.0, 3.0]]), np.full((4, 2), 0.2))
+    np.testing.assert_allclose(both, [0.1, np.sqrt(5.0 / 3.0) / 2.0])
+    assert runs_mean_error([5.0], [0.3]) == pytest.approx(0.3)

@@ -48,6 +48,7 @@ import numpy as np
 from scipy.special import logsumexp
 
 from bayestissue._validation import ValidationError
+from bayestissue.inference.diagnostics import runs_mean_error
 from bayestissue.inference.marginal_noise import MarginalNoise, can_marginalise
 from bayestissue.inference.problem import CalibrationProblem
 from bayestissue.inference.sampling.checkpoints import checkpoint_path
@@ -234,10 +235,7 @@ class NestedSample:
     def log_z_err(self) -> float:
         """Error of :attr:`log_z`: the larger of the runs' scatter over :math:`\\sqrt{n}` and their own errors
         combined, :math:`\\sqrt{\\sum_k \\sigma_k^2}/n`."""
-        lz = np.array([r.log_z for r in self.runs])
-        own = np.sqrt(np.sum([r.log_z_err**2 for r in self.runs])) / lz.size
-        scatter = lz.std(ddof=1) / np.sqrt(lz.size) if lz.size > 1 else 0.0
-        return float(max(own, scatter))
+        return float(runs_mean_error([r.log_z for r in self.runs], [r.log_z_err for r in self.runs]))
 
     def insertion_tests(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Each run's insertion-order test ``(passed, shortest alarm-free stretch in iterations)``; None unless every

@@ -33,9 +33,7 @@ CLIMB_EVALUATIONS = 4000
 
 def peak_log_likelihood(problem: CalibrationProblem, options: NestedOptions, theta) -> float:
     """The runs' log-likelihood at a full ``theta`` (e.g. a least-squares optimum with its plug-in noise)."""
-    theta = np.asarray(theta, dtype=float)
-    n_dim, _, log_l, _ = nested_target(problem, options)
-    return float(log_l(theta[None, :n_dim])[0])
+    return _at(nested_target(problem, options), theta)
 
 
 def climb_log_likelihood(problem: CalibrationProblem, options: NestedOptions, theta) -> float:
@@ -44,7 +42,18 @@ def climb_log_likelihood(problem: CalibrationProblem, options: NestedOptions, th
     (adaptive, points clipped to the box), then Powell bounded by the box, :data:`CLIMB_EVALUATIONS` evaluations
     each; the value Powell ends at. The search runs over what the runs sample: the material parameters where the
     noise sds are integrated out, all of them (sds included) otherwise."""
-    n, _, log_l, _ = nested_target(problem, options)
+    return _climb(problem, nested_target(problem, options), theta)
+
+
+def _at(target, theta) -> float:
+    """``target``'s (:func:`nested_target`'s) log-likelihood at a full ``theta``."""
+    n_dim, _, log_l, _ = target
+    return float(log_l(np.asarray(theta, dtype=float)[None, :n_dim])[0])
+
+
+def _climb(problem: CalibrationProblem, target, theta) -> float:
+    """:func:`climb_log_likelihood` on ``target`` (:func:`nested_target`'s)."""
+    n, _, log_l, _ = target
     box = problem.material if n == problem.n_material else problem.parameters
 
     def minus_log_l(u):
@@ -81,7 +90,8 @@ def peak_reference(problem: CalibrationProblem, options: NestedOptions, thetas) 
     """:class:`PeakReference` of the least-squares optima ``thetas`` (full parameter vectors, each with its plug-in
     noise sds: :meth:`~bayestissue.inference.problem.CalibrationProblem.nuisance_estimate`)."""
     thetas = list(thetas)
+    target = nested_target(problem, options)  # one target for all: it is built afresh on each call
     return PeakReference(
-        at_optima=[peak_log_likelihood(problem, options, t) for t in thetas],
-        climbed=[climb_log_likelihood(problem, options, t) for t in thetas],
+        at_optima=[_at(target, t) for t in thetas],
+        climbed=[_climb(problem, target, t) for t in thetas],
     )
