@@ -44,7 +44,7 @@ from bayestissue.inference import (  # noqa: E402
     sample_nested,
 )
 from bayestissue.inference.evidence import LEVELS, weighted_quantile  # noqa: E402
-from bayestissue.inference.sampling.nested import SAMPLERS  # noqa: E402
+from bayestissue.inference.sampling.nested import DIRECTIONS, SAMPLERS  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -168,6 +168,7 @@ def main(argv=None) -> int:
     ap.add_argument("--figure", help="write the figure here (PNG)")
     ap.add_argument("--sampler", choices=SAMPLERS, default="nautilus", help="the nested engine's sampler")
     ap.add_argument("--slice-steps", type=int, help="UltraNest's slice steps per new point (default 2 per dimension)")
+    ap.add_argument("--directions", choices=DIRECTIONS, default="region", help="UltraNest's slice directions")
     args = ap.parse_args(argv)
     target = Rosenbrock(blocks=args.blocks, depth=args.depth)
     truth = target.truth(args.exact_draws)
@@ -177,8 +178,11 @@ def main(argv=None) -> int:
           f"{args.exact_draws} exact draws)")  # fmt: skip
     problem = rosenbrock_problem(target)
     opts = NestedOptions(n_live=args.n_live, n_eff=args.n_eff, n_runs=args.runs, n_networks=args.networks,
-                         sampler=args.sampler, slice_steps=args.slice_steps)  # fmt: skip
-    print(f"{args.sampler}: {args.runs} runs of {args.n_live} live points")
+                         sampler=args.sampler, slice_steps=args.slice_steps, directions=args.directions)  # fmt: skip
+    print(
+        f"{args.sampler}: {args.runs} runs of {args.n_live} live points"
+        + (f", {args.directions} directions" if args.sampler == "ultranest" else "")
+    )
     t0 = time.perf_counter()
     sample = sample_nested(problem, options=opts, rng=args.seed)
     wall = time.perf_counter() - t0

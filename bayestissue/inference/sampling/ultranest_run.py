@@ -6,8 +6,10 @@ UltraNest (Buchner 2021, JOSS 6, 3001, doi:10.21105/joss.03001) integrates
 
 replacing the worst of :math:`n` live points by a new point drawn from the prior inside the contour
 :math:`L > L_i`. The new points come from a vectorised population slice sampler
-(``ultranest.popstepsampler.PopulationSliceSampler``, directions along the principal axes of the MLFriends region):
-``population`` chains advance together, so every call of :meth:`CalibrationProblem.log_likelihood` is one batch,
+(``ultranest.popstepsampler.PopulationSliceSampler``; ``directions``: along the principal axes of the MLFriends
+region, or with equal odds such an axis or the difference of two random live points, UltraNest's mixture, which its
+documentation names the best of the step samplers compared by Buchner, arXiv:2211.09426): ``population`` chains
+advance together, so every call of :meth:`CalibrationProblem.log_likelihood` is one batch,
 and each chain takes ``slice_steps`` slice steps (default :math:`2d`) from a live point before its end point is
 accepted. Too few steps leave the new point correlated with its start and bias the run towards the start's
 contour; that is what the insertion-order test sees.
@@ -50,6 +52,10 @@ _FLOOR = -1e100
 _N_BOOT = 100
 #: iterations per expected 4-sigma alarm of the insertion test in an unbiased run (Buchner 2023, sec. 4.5.2)
 _QUIET_ITERATIONS = 10**5.5
+
+
+#: :data:`~.nested.DIRECTIONS` -> UltraNest's direction generator (``ultranest.stepfuncs``)
+_DIRECTIONS = {"region": "generate_region_oriented_direction", "mixture": "generate_mixture_random_direction"}
 
 
 def slice_steps(options, n_dim: int) -> int:
@@ -117,7 +123,7 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
         sampler.stepsampler = popstepsampler.PopulationSliceSampler(
             popsize=options.population,
             nsteps=slice_steps(options, n_dim),
-            generate_direction=popstepsampler.generate_region_oriented_direction,
+            generate_direction=getattr(popstepsampler, _DIRECTIONS[options.directions]),
         )
         result = sampler.run(
             min_num_live_points=options.n_live,
