@@ -44,7 +44,7 @@ from bayestissue.inference import (  # noqa: E402
     sample_nested,
 )
 from bayestissue.inference.evidence import LEVELS, weighted_quantile  # noqa: E402
-from bayestissue.inference.sampling.nested import DIRECTIONS, SAMPLERS  # noqa: E402
+from bayestissue.inference.sampling.nested import SAMPLERS, SLICE_DIRECTIONS  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ def main(argv=None) -> int:
     ap.add_argument("--figure", help="write the figure here (PNG)")
     ap.add_argument("--sampler", choices=SAMPLERS, default="nautilus", help="the nested engine's sampler")
     ap.add_argument("--slice-steps", type=int, help="UltraNest's slice steps per new point (default 2 per dimension)")
-    ap.add_argument("--directions", choices=DIRECTIONS, default="region", help="UltraNest's slice directions")
+    ap.add_argument("--directions", choices=SLICE_DIRECTIONS, default="region", help="UltraNest's slice directions")
     args = ap.parse_args(argv)
     target = Rosenbrock(blocks=args.blocks, depth=args.depth)
     truth = target.truth(args.exact_draws)

@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from bayestissue._schema import Key, check_table, reference_rows
 from bayestissue._validation import ValidationError, check_known_keys
 from bayestissue.inference.likelihood import NOISE_MODELS
-from bayestissue.inference.sampling.nested import DIRECTIONS, SAMPLERS
+from bayestissue.inference.sampling.nested import SAMPLERS, SLICE_DIRECTIONS
 from bayestissue.inference.sampling.options import MOVES, PROPOSALS
 from bayestissue.workflows.coordinates import COORDINATES
 
@@ -115,7 +115,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
                            "the run; the insertion-order test may see it)", low=1),
         "directions": Key("choice", '"region"', "UltraNest: slice directions, the principal axes of the live "
                           "points' region or a mixture of those and differences of two live points (carries points "
-                          "along a curved ridge)", choices=DIRECTIONS),
+                          "along a curved ridge)", choices=SLICE_DIRECTIONS),
         "population": Key("int", "100", "UltraNest: chains advanced together (points per likelihood batch)", low=1),
         "scheduler": Key("scheduler", "none", 'where the runs go: none (processes of this machine), "local" (dask '
                          'tasks on a LocalCluster of n_processes workers) or a dask scheduler address '

@@ -55,7 +55,7 @@ from bayestissue.inference.sampling.checkpoints import checkpoint_path
 from bayestissue.inference.sampling.cluster import check_scheduler, run_runs
 
 __all__ = [
-    "DIRECTIONS",
+    "SLICE_DIRECTIONS",
     "SAMPLERS",
     "NestedOptions",
     "NestedRun",
@@ -70,7 +70,7 @@ __all__ = [
 SAMPLERS = ("nautilus", "ultranest")
 #: UltraNest's slice directions (:mod:`~bayestissue.inference.sampling.ultranest_run`): along the principal axes of
 #: the live points' region, or half of them along the difference of two random live points (differential evolution)
-DIRECTIONS = ("region", "mixture")
+SLICE_DIRECTIONS = ("region", "mixture")
 
 
 class RunPhases:
@@ -128,7 +128,7 @@ class NestedOptions:
         nautilus's; ``slice_steps`` and ``population`` UltraNest's; ``f_live`` is UltraNest's ``frac_remain`` and
         ``n_eff`` its ``min_ess``.
     slice_steps : slice steps of each new point (UltraNest; None: two per sampled dimension).
-    directions : UltraNest's slice directions (:data:`DIRECTIONS`): ``"region"``, the principal axes of the live
+    directions : UltraNest's slice directions (:data:`SLICE_DIRECTIONS`): ``"region"``, the principal axes of the live
         points' region, or ``"mixture"``, each step drawing with equal odds a region axis or the difference of two
         random live points (which carries new points between distant parts of a ridge; arXiv:2211.09426).
     population : chains advanced together, i.e. points per likelihood batch (UltraNest).
@@ -161,8 +161,8 @@ class NestedOptions:
             _count(name, getattr(self, name), low)
         if self.sampler not in SAMPLERS:
             raise ValidationError("sampler", self.sampler, " or ".join(f'"{s}"' for s in SAMPLERS))
-        if self.directions not in DIRECTIONS:
-            raise ValidationError("directions", self.directions, " or ".join(f'"{s}"' for s in DIRECTIONS))
+        if self.directions not in SLICE_DIRECTIONS:
+            raise ValidationError("directions", self.directions, " or ".join(f'"{s}"' for s in SLICE_DIRECTIONS))
         for name in ("n_processes", "slice_steps"):
             if getattr(self, name) is not None:
                 _count(name, getattr(self, name), 1)

@@ -54,7 +54,7 @@ _N_BOOT = 100
 _QUIET_ITERATIONS = 10**5.5
 
 
-#: :data:`~.nested.DIRECTIONS` -> UltraNest's direction generator (``ultranest.stepfuncs``)
+#: :data:`~.nested.SLICE_DIRECTIONS` -> UltraNest's direction generator (``ultranest.stepfuncs``)
 _DIRECTIONS = {"region": "generate_region_oriented_direction", "mixture": "generate_mixture_random_direction"}
 
 
