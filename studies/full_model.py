@@ -148,7 +148,8 @@ def _summary(case: DataChoice, mode: str) -> str:
                          f"estimate {moves['widened_flat'][0]:+.2f} (analyses/box_width.py)\n")  # fmt: skip
     for e in case.models.values():
         lines.append(
-            f"## {e.model} ({len(e.names)} sampled; {e.sampler}, {e.n_live} live points, {e.wall_s:.0f} s; "
+            f"## {e.model} ({len(e.names)} parameters; {e.sampler}, {e.n_live} live points, "
+            f"{f'{e.wall_s:.0f} s' if np.isfinite(e.wall_s) else 'resumed over sessions'}; "
             f"code and data {e.numbers_hash})\n"
         )
         agree = "agree" if e.runs_agree else "DISAGREE"
@@ -159,7 +160,7 @@ def _summary(case: DataChoice, mode: str) -> str:
         lines.append(f"posterior: {e.verdict}\n")
         lines.append("| run | log Z | calls | s |\n|---|---|---|---|")
         for k, (z, ze, c, t) in enumerate(zip(e.log_z, e.log_z_err, e.calls, e.time_s, strict=True)):
-            lines.append(f"| {k} | {z:.3f} +- {ze:.3f} | {c} | {t:.0f} |")
+            lines.append(f"| {k} | {z:.3f} +- {ze:.3f} | {c} | {f'{t:.0f}' if np.isfinite(t) else 'not recorded'} |")
         if e.box is not None:
             b = e.box
             edges = ", ".join(f"{n} {lo:.2f}/{hi:.2f}" for n, (lo, hi) in zip(b.names, b.edge_share, strict=True))

@@ -112,8 +112,8 @@ SETTINGS = {
 #: disagreed on the evidence (log Z 909.76-915.43, scatter p = 2e-17) and every run failed the insertion-order test
 #: (2026-11-27), whose remedy is more steps per new point: 4 per parameter of each joint model, sds included
 #: (mirror 10, full 13, scale 11; tested), i.e. 5.0, 4.7 and 4.9 per sampled dimension (8, 11, 9). At 40 steps the
-#: mirror model's first two runs still disagree (915.57 and 912.04, +- 0.20; the peak lies on gamma2's upper bound,
-#: docs/verification.md), so these settings are not yet enough either.
+#: mirror model's four runs still disagree (log Z 912.04-917.19, own errors 0.39-0.55, p = 1.6e-13; the peak lies on
+#: gamma2's upper bound, docs/verification.md), so these settings are not yet enough either.
 OVERRIDES = {
     ("full", "joint"): {"mirror": {"slice_steps": 40}, "full": {"slice_steps": 52}, "scale": {"slice_steps": 44}},
 }
@@ -152,7 +152,9 @@ def current_hashes(rec: ModelChoiceRecord, data_dir: Path) -> dict[str, dict[str
 class ModelEvidence:
     """One model's nested runs on one data set.
 
-    Per run: ``log_z`` and its own error, likelihood calls, seconds, finished (not capped), ``max_log_l`` (its
+    Per run: ``log_z`` and its own error, likelihood calls and seconds (of all the sessions that worked on it:
+    :func:`~bayestissue.inference.sampling.checkpoints.earlier_cost`; seconds NaN where a session's were not
+    recorded), finished (not capped), ``max_log_l`` (its
     largest log-likelihood) and ``peak_reached`` (that within d/2 of ``reference_log_l``, the runs' likelihood
     climbed from the least-squares optima, :mod:`~bayestissue.inference.sampling.peak`: the engine's peak check,
     :attr:`~bayestissue.inference.evidence.NestedReport.short_of_peak`). ``log_z_p``: the p-value of the runs' log Z
@@ -162,7 +164,9 @@ class ModelEvidence:
     (:class:`~bayestissue.inference.evidence.NestedReport`); ``unit_quantiles`` the same in box coordinates (0 at
     the lower bound, 1 at the upper, log scale where the prior is log-uniform) and ``run_unit_quantiles[k]`` run
     ``k``'s own. ``verdict`` the engine's verdict line. ``numbers_hash``: :func:`current_hash` of the code, data and
-    settings that computed them. ``box``: the evidence under narrowed and widened log boxes
+    settings that computed them. ``wall_s``: the stage's wall time for the model, NaN where a run was resumed from
+    an earlier session's checkpoint (the wall time of the runs' sessions together is not known). ``box``: the
+    evidence under narrowed and widened log boxes
     (:func:`~bayestissue.analyses.box_width.box_shift`; None where the runs' points were not at hand).
     """
 
@@ -294,6 +298,6 @@ def model_evidence(model: str, sample, report, options, wall_s: float, key: str)
         quantile_errors=report.quantile_errors().tolist(),
         unit_quantiles=to_unit(q.T).T.tolist(),
         run_unit_quantiles=[to_unit(qk.T).T.tolist() for qk in report.q_runs],
-        wall_s=float(wall_s),
+        wall_s=float("nan") if any(r.n_like_resumed for r in runs) else float(wall_s),
         box=box_shift(runs, sample.problem.parameters.sampled),
     )

@@ -52,8 +52,11 @@ def _projection(e) -> dict[int, float]:
     r"""Wall time (s) of ``e``'s runs on W workers (:func:`~bayestissue.parallel.projected_wall_time`) for W in
     :data:`PROJECTED_WORKERS`: the runs are independent tasks and none is split (docs/cluster.md), and
     :math:`\bar t_{run}` is their mean time as measured here, beside the other runs of the record (a little above a
-    run's time alone, so W = 1 is an upper estimate)."""
-    return {w: projected_wall_time(len(e.time_s), float(np.mean(e.time_s)), w) for w in PROJECTED_WORKERS}
+    run's time alone, so W = 1 is an upper estimate). Empty unless every run's time was recorded."""
+    t = np.asarray(e.time_s, dtype=float)
+    if not np.all(np.isfinite(t)):
+        return {}
+    return {w: projected_wall_time(t.size, float(np.mean(t)), w) for w in PROJECTED_WORKERS}
 
 
 def _factor(case: DataChoice, a: str, b: str) -> dict:
@@ -94,6 +97,9 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
         "c": case,
         "models": list(case.models.values()),
         "projected": {k: _projection(e) for k, e in case.models.items()},
+        "wall": {
+            k: f"{e.wall_s:.0f} s" if np.isfinite(e.wall_s) else "resumed over sessions" for k, e in case.models.items()
+        },
         "mirror": case.models.get("mirror"),
         "full": case.models.get("full"),
         "others": [run[f] for f in rest if f in run],

@@ -80,7 +80,7 @@ def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
     """model_evidence on a stand-in sample: runs in order, merged values, quantiles mapped by the prior's to_unit."""
     points = np.array([[0.5, 2.0], [500.0, 3.0]])  # the first inside the narrowed box [0.1, 100] of "a", the second not
     runs = [SimpleNamespace(log_z=z, log_z_err=0.1, n_like=100 + k, time_s=1.0, finished=True, points=points,
-                            log_w=np.log([0.25, 0.75]), bootstrap_weights=None)
+                            log_w=np.log([0.25, 0.75]), bootstrap_weights=None, n_like_resumed=0)
             for k, z in enumerate((10.0, 10.4))]  # fmt: skip
     specs = [SimpleNamespace(name="a", prior="loguniform", lower=0.01, upper=1000.0),
              SimpleNamespace(name="b", prior="uniform", lower=0.0, upper=10.0)]  # fmt: skip
@@ -104,6 +104,10 @@ def test_the_record_keeps_each_run_and_the_quantiles_in_box_units():
     four = dataclasses.replace(e, finished=[True] * 4, peak_reached=[True] * 4)
     assert four.runs_agree is False and dataclasses.replace(four, log_z_p=0.5).runs_agree
     assert e.unit_quantiles == (q / 10).tolist() and e.run_unit_quantiles[1] == ((q + 1) / 10).tolist()
+    # the stage's wall time is this session's: NaN once a run was resumed from an earlier session's checkpoint
+    assert e.wall_s == 3.0
+    runs[1].n_like_resumed = 60
+    assert np.isnan(MC.model_evidence("full", sample, report, opts, 3.0, "abc").wall_s)
     # without the least-squares reference the peak check has not run: refused rather than recorded as reached
     with pytest.raises(ValueError, match="no reference log-likelihood"):
         MC.model_evidence("full", sample, SimpleNamespace(**{**vars(report), "reference_log_l": None}), opts, 3.0, "a")

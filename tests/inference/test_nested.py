@@ -182,7 +182,9 @@ def test_capped_run_is_not_converged_and_resumes_from_its_checkpoint(tmp_path):
     assert resumed.runs[0].finished
     # the resumed run evaluated fewer points than a fresh one needs: it kept the stored 1500
     fresh = sample_nested(problem, options=NestedOptions(**SMALL, n_runs=1), rng=4)
-    assert resumed.runs[0].n_like < fresh.runs[0].n_like
+    run = resumed.runs[0]
+    assert run.n_like_resumed == 1500 and run.n_like - 1500 < fresh.runs[0].n_like
+    assert run.time_s > first.runs[0].time_s  # both sessions' seconds (the cost ledger)
 
 
 def test_weighted_ess_of_equal_weights_is_the_sample_size_and_drops_with_uneven_weights():

@@ -113,12 +113,44 @@ def test_capped_run_resumes_from_its_directory(tmp_path):
     assert unit == "evaluations" and stored[0] >= 80_000
     assert [m[1] // 20_000 for m in seen[:3]] == [1, 2, 3]  # progress every report_every evaluations
     full = NestedOptions(**ULTRA, n_runs=1)
-    resumed = sample_nested(problem, options=full, checkpoint=tmp_path, resume=True, rng=4)
+    seen.clear()
+    resumed = sample_nested(problem, options=full, checkpoint=tmp_path, resume=True, rng=4,
+                            progress=lambda *m: seen.append(m))  # fmt: skip
     fresh = sample_nested(problem, options=full, rng=4)
-    assert resumed.runs[0].finished
+    run = resumed.runs[0]
+    assert run.finished
     # UltraNest replays the stored points without evaluating them; the population batch in flight is lost
-    assert resumed.runs[0].n_like < fresh.runs[0].n_like - 40_000, (resumed.runs[0].n_like, fresh.runs[0].n_like)
+    assert run.n_like_resumed == stored[0]
+    assert run.n_like - run.n_like_resumed < fresh.runs[0].n_like - 40_000, (run.n_like, fresh.runs[0].n_like)
     assert abs(resumed.log_z - fresh.log_z) < 4 * np.hypot(resumed.log_z_err, fresh.log_z_err)
+    # the run's cost is that of both sessions (the cost ledger beside the checkpoint), progress counts all of it
+    assert run.n_like > stored[0] and run.time_s > first.runs[0].time_s
+    assert seen[0][1] > stored[0] and seen[-1][1] <= run.n_like
+
+
+def test_a_resumed_run_reports_the_cost_of_all_its_sessions_and_says_when_a_session_was_not_recorded(tmp_path):
+    """The cost ledger (``nested_<k>.cost.json``) carries the evaluations, failed solves and seconds of the
+    sessions before a resume: without it (a checkpoint from before the ledger) the evaluations come from the
+    checkpoint itself and the seconds are NaN, not this session's alone; a fresh run over an old checkpoint
+    ignores both."""
+    from bayestissue.inference.sampling.checkpoints import RunCost, earlier_cost, write_cost
+
+    problem, _ = linear_gaussian_problem(n_obs=20, n_params=2, sd=0.1, box=20.0, rng=2)
+    capped = NestedOptions(**ULTRA, n_runs=1, max_evaluations=30_000)
+    first = sample_nested(problem, options=capped, checkpoint=tmp_path, rng=4).runs[0]
+    path = tmp_path / "nested_0.h5"
+    stored, _ = stored_progress(tmp_path, "nested", 1)
+    ledger = earlier_cost(path, resume=True)
+    assert ledger == RunCost(stored[0], first.n_failed, first.time_s)
+    assert earlier_cost(path, resume=False) == RunCost()
+    write_cost(path, RunCost(5, 2, 100.0))  # pretend: earlier sessions failed 2 solves in 100 s
+    resumed = sample_nested(problem, options=NestedOptions(**ULTRA, n_runs=1, max_evaluations=45_000),
+                            checkpoint=tmp_path, resume=True, rng=4).runs[0]  # fmt: skip
+    assert resumed.n_like_resumed == stored[0] and resumed.n_failed >= 2 and resumed.time_s > 100.0
+    path.with_suffix(".cost.json").unlink()
+    again = sample_nested(problem, options=NestedOptions(**ULTRA, n_runs=1, max_evaluations=50_000),
+                          checkpoint=tmp_path, resume=True, rng=4).runs[0]  # fmt: skip
+    assert again.n_like_resumed >= 45_000 and np.isnan(again.time_s)
 
 
 def test_each_run_of_one_process_logs_into_its_own_directory(tmp_path):

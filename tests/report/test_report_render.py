@@ -328,3 +328,24 @@ def test_the_wall_time_is_projected_from_the_runs_measured_times(records):
             t = float(np.mean(e.time_s))
             assert len(e.time_s) == 2
             assert f"{data} {model} {2 * t:.0f} s on 1 worker, {t:.0f} s on 4 workers" in line
+
+
+def test_a_model_resumed_over_sessions_says_so_instead_of_one_sessions_times(records):
+    """A model whose runs were resumed from an earlier session's checkpoint has no measured wall time (NaN): its row
+    says "resumed over sessions"; a run whose earlier sessions' seconds were not recorded (NaN) leaves that model
+    without a projection, and the other models keep theirs."""
+    rec = records.model_choice
+    data, case = next(iter(rec.cases.items()))
+    model, e = next(iter(case.models.items()))
+    resumed = dataclasses.replace(e, wall_s=float("nan"), time_s=[float("nan")] + list(e.time_s[1:]))
+    changed = dataclasses.replace(
+        rec, cases={**rec.cases, data: dataclasses.replace(case, models={**case.models, model: resumed})}
+    )
+    text = render_report(dataclasses.replace(records, model_choice=changed))
+    row = next(x for x in text.splitlines() if x.startswith(f"| {data} | {model} |"))
+    assert row.endswith("| resumed over sessions |") and "nan" not in row
+    line = next(x for x in text.splitlines() if x.startswith("Wall time:"))
+    assert f"{data} {model} not projected (a run's time was not recorded)" in line
+    other, o = next((k, v) for k, v in case.models.items() if k != model)
+    assert f"{data} {other} {2 * float(np.mean(o.time_s)):.0f} s on 1 worker" in line
+    assert "nan" not in line

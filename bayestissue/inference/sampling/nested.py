@@ -51,7 +51,7 @@ from bayestissue._validation import ValidationError
 from bayestissue.inference.diagnostics import runs_mean_error
 from bayestissue.inference.marginal_noise import MarginalNoise, can_marginalise
 from bayestissue.inference.problem import CalibrationProblem
-from bayestissue.inference.sampling.checkpoints import checkpoint_path
+from bayestissue.inference.sampling.checkpoints import checkpoint_path, earlier_cost, write_cost
 from bayestissue.inference.sampling.cluster import check_scheduler, run_runs
 
 __all__ = [
@@ -184,16 +184,18 @@ class NestedRun:
     log_w: np.ndarray  # (n,) normalised: logsumexp(log_w) == 0
     log_l: np.ndarray  # (n,) the sampled likelihood: with the noise sds integrated out where the run did that
     log_z: float
-    n_like: int
+    n_like: int  # likelihood evaluations of all the run's sessions (a resumed run's included)
     n_failed: int
     seed: int
-    time_s: float
+    time_s: float  # seconds of all its sessions; NaN where a session's were not recorded
     finished: bool
     reported_log_z_err: float | None = None
     insertion_ok: bool | None = None
     insertion_run: float | None = None  # shortest stretch of iterations between insertion-test alarms
     #: (n, B) replicate weights of the run's own bootstrap (UltraNest), for the quantiles' errors
     bootstrap_weights: np.ndarray | None = field(default=None, repr=False)
+    #: the evaluations stored in the checkpoint it resumed from (0: a fresh run; :func:`~.checkpoints.earlier_cost`)
+    n_like_resumed: int = 0
 
     @property
     def weights(self) -> np.ndarray:
@@ -318,6 +320,7 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
     from nautilus import Sampler
 
     n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
+    before = earlier_cost(path, resume)
     if path is not None and not resume and Path(path).exists():
         Path(path).unlink()
     n_dim, prior, log_l, complete = nested_target(problem, options)
@@ -342,10 +345,14 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
             n_like_max=min(sampler.n_like + options.report_every, cap),
             discard_exploration=options.discard_exploration,
         )
+        spent = before.plus(problem.n_evaluations - n_eval0, problem.n_failed - n_fail0, time.perf_counter() - t0)
+        write_cost(path, spent)
         if progress is not None:  # nautilus has no log Z right after it discards the exploration phase: NaN then
             log_z = float("nan") if sampler.log_z is None else float(sampler.log_z)
             progress(k, int(sampler.n_like), float(sampler.n_eff), bool(sampler.explored), log_z)
-    n_like, n_failed = problem.n_evaluations - n_eval0, problem.n_failed - n_fail0  # before completing the points
+    # the run's cost over all its sessions, before completing the points (that is not the run's work)
+    spent = before.plus(problem.n_evaluations - n_eval0, problem.n_failed - n_fail0, time.perf_counter() - t0)
+    write_cost(path, spent)
     points, log_w, log_l = sampler.posterior()
     log_w = np.asarray(log_w, dtype=float)
     return NestedRun(
@@ -353,11 +360,12 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
         log_w=log_w - logsumexp(log_w),
         log_l=np.asarray(log_l, dtype=float),
         log_z=float(sampler.log_z),
-        n_like=int(n_like),
-        n_failed=int(n_failed),
+        n_like=spent.calls,
+        n_failed=spent.failed,
         seed=int(seed),
-        time_s=time.perf_counter() - t0,
+        time_s=spent.seconds,
         finished=bool(finished),
+        n_like_resumed=before.calls,
     )
 
 

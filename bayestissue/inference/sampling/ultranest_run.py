@@ -31,7 +31,8 @@ replicates), from which :func:`~bayestissue.inference.evidence.quantile_errors` 
 
 UltraNest draws from numpy's global random state: the run seeds it and restores it afterwards (same seed, same
 run). Its log directory (``checkpoint``) holds the points (``results/points.hdf5``, attribute ``ncalls``); a
-resumed run replays them without calling the likelihood.
+resumed run replays them without calling the likelihood, and its calls, failed solves and seconds are those of all
+its sessions (:func:`~.checkpoints.earlier_cost`).
 A failed forward solve is :math:`\\log L = -10^{100}` (UltraNest refuses non-finite values), counted.
 """
 
@@ -43,6 +44,8 @@ from pathlib import Path
 
 import numpy as np
 from scipy.special import logsumexp
+
+from bayestissue.inference.sampling.checkpoints import RunCost, earlier_cost, write_cost
 
 __all__ = ["run_ultranest", "slice_steps"]
 
@@ -90,14 +93,21 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
 
     n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
     n_dim, prior, log_l, complete = target
-    state = {"next": options.report_every}
+    before = earlier_cost(path, resume)
+    state = {"next": options.report_every, "t0": time.perf_counter()}
+
+    def cost() -> RunCost:
+        return before.plus(problem.n_evaluations - n_eval0, problem.n_failed - n_fail0,
+                           time.perf_counter() - state["t0"])  # fmt: skip
 
     def like(x):
         ll = np.asarray(log_l(x), dtype=float)
-        done = problem.n_evaluations - n_eval0
-        if progress is not None and done >= state["next"]:
-            progress(k, int(done), 0.0, False, float("nan"))
-            state["next"] = (done // options.report_every + 1) * options.report_every
+        so_far = cost()
+        if so_far.calls >= state["next"]:  # the run's evaluations over all its sessions
+            write_cost(path, so_far)
+            if progress is not None:
+                progress(k, so_far.calls, 0.0, False, float("nan"))
+            state["next"] = (so_far.calls // options.report_every + 1) * options.report_every
         return np.where(np.isfinite(ll), ll, _FLOOR)
 
     def transform(u):
@@ -106,7 +116,6 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
     log_dir = None if path is None else str(Path(path).with_suffix(""))
     saved = np.random.get_state()  # noqa: NPY002 (UltraNest draws from the global state)
     np.random.seed(int(seed) % 2**32)  # noqa: NPY002
-    t0 = time.perf_counter()
     _own_log()
     try:
         sampler = ultranest.ReactiveNestedSampler(
@@ -135,7 +144,8 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
         )
     finally:
         np.random.set_state(saved)  # noqa: NPY002
-    n_like, n_failed = problem.n_evaluations - n_eval0, problem.n_failed - n_fail0
+    spent = cost()
+    write_cost(path, spent)
     ws = result["weighted_samples"]
     keep = ws["weights"] > 0
     log_w = np.log(ws["weights"][keep])
@@ -148,10 +158,11 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
         log_w=log_w - logsumexp(log_w),
         log_l=np.asarray(ws["logl"][keep], dtype=float),
         log_z=float(result["logz"]),
-        n_like=int(n_like),
-        n_failed=int(n_failed),
+        n_like=spent.calls,
+        n_failed=spent.failed,
         seed=int(seed),
-        time_s=time.perf_counter() - t0,
+        time_s=spent.seconds,
+        n_like_resumed=before.calls,
         finished=bool(cap is None or int(result["ncall"]) < cap),
         reported_log_z_err=float(result["logzerr"]),
         insertion_ok=bool(test["converged"]) and not alarm,
