@@ -35,6 +35,8 @@ SMOKE = {
     "cluster_scaling.py --sampler ultranest": (["--n-live", "30", "--runs", "2", "--workers", "1",
                                                 "--max-evaluations", "2000"], "projected"),
     "nested_samplers.py": (["--n-live", "50", "--runs", "2", "--max-evaluations", "1500"], "on the quantiles"),
+    "gamma_box_peak.py": (["--upper", "0.95", "0.99", "--seeds", "1", "--maxiter", "3", "--popsize", "4"],
+                          "against the paper's 0.95"),
     "compare_engines.py": ([str(ROOT / "figures" / "calibration_summary_T1_mirror.csv"),
                             str(ROOT / "figures" / "calibration_summary_T1_mirror.csv")], "marginals AGREE"),
 }  # fmt: skip
