@@ -37,7 +37,9 @@ def test_a_fit_is_cross_checked_by_a_nested_run(tmp_path):
     md = (tmp_path / "cross_check.md").read_text()
     assert md.count("| mu |") == 1 and md.count("| ginf2 |") == 1
     assert sorted(p.name for p in (tmp_path / "checkpoints" / "cross_check").iterdir()) == [
+        "nested_0.cost.json",  # each run's cost ledger beside its checkpoint
         "nested_0.h5",
+        "nested_1.cost.json",
         "nested_1.h5",
     ]
     # the check's runs resume from their checkpoints: same seed, same check
