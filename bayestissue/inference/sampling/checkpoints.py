@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import json
 import os
+import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from bayestissue._validation import ValidationError
 
-__all__ = ["RunCost", "checkpoint_path", "earlier_cost", "stored_progress", "write_cost"]
+__all__ = ["RunCost", "checkpoint_path", "cost_meter", "earlier_cost", "stored_progress", "write_cost"]
 
 #: engine -> (file stem, HDF5 group of run k, attribute counting its progress, unit of that count)
 _LAYOUT = {
@@ -44,7 +46,6 @@ def stored_progress(directory: str | Path, engine: str, n_runs: int) -> tuple[li
         Naming the first checkpoint that exists but cannot be read (truncated by a crash, 0 bytes, not HDF5), with
         the way out.
     """
-
     return [_stored(checkpoint_path(directory, engine, k), engine, k) for k in range(n_runs)], _LAYOUT[engine][3]
 
 
@@ -104,6 +105,17 @@ def earlier_cost(path: str | Path | None, resume: bool) -> RunCost:
         return RunCost(calls, int(ledger["failed"]), float(ledger["seconds"]))
     except (OSError, ValueError, KeyError, TypeError):
         return RunCost(calls, 0, float("nan"))
+
+
+def cost_meter(before: RunCost, problem) -> Callable[[], RunCost]:
+    """A function giving ``before`` plus what ``problem`` has evaluated and failed, and the seconds, since this call:
+    a run's cost over all its sessions at any moment of this one."""
+    n_eval0, n_fail0, t0 = problem.n_evaluations, problem.n_failed, time.perf_counter()
+
+    def cost() -> RunCost:
+        return before.plus(problem.n_evaluations - n_eval0, problem.n_failed - n_fail0, time.perf_counter() - t0)
+
+    return cost
 
 
 def write_cost(path: str | Path | None, cost: RunCost) -> None:

@@ -51,7 +51,7 @@ from bayestissue._validation import ValidationError
 from bayestissue.inference.diagnostics import runs_mean_error
 from bayestissue.inference.marginal_noise import MarginalNoise, can_marginalise
 from bayestissue.inference.problem import CalibrationProblem
-from bayestissue.inference.sampling.checkpoints import checkpoint_path, earlier_cost, write_cost
+from bayestissue.inference.sampling.checkpoints import checkpoint_path, cost_meter, earlier_cost, write_cost
 from bayestissue.inference.sampling.cluster import check_scheduler, run_runs
 
 __all__ = [
@@ -319,8 +319,8 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
         return NestedRun(**run_ultranest(problem, k, seed, options, path, resume, progress, target))
     from nautilus import Sampler
 
-    n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
     before = earlier_cost(path, resume)
+    cost = cost_meter(before, problem)
     if path is not None and not resume and Path(path).exists():
         Path(path).unlink()
     n_dim, prior, log_l, complete = nested_target(problem, options)
@@ -336,7 +336,6 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
         resume=bool(resume),
     )
     cap = np.inf if options.max_evaluations is None else options.max_evaluations
-    t0 = time.perf_counter()
     finished = False
     while not finished and sampler.n_like < cap:
         finished = sampler.run(
@@ -345,13 +344,12 @@ def _run(problem, k, seed, options: NestedOptions, path, resume, progress) -> Ne
             n_like_max=min(sampler.n_like + options.report_every, cap),
             discard_exploration=options.discard_exploration,
         )
-        spent = before.plus(problem.n_evaluations - n_eval0, problem.n_failed - n_fail0, time.perf_counter() - t0)
-        write_cost(path, spent)
+        write_cost(path, cost())
         if progress is not None:  # nautilus has no log Z right after it discards the exploration phase: NaN then
             log_z = float("nan") if sampler.log_z is None else float(sampler.log_z)
             progress(k, int(sampler.n_like), float(sampler.n_eff), bool(sampler.explored), log_z)
     # the run's cost over all its sessions, before completing the points (that is not the run's work)
-    spent = before.plus(problem.n_evaluations - n_eval0, problem.n_failed - n_fail0, time.perf_counter() - t0)
+    spent = cost()
     write_cost(path, spent)
     points, log_w, log_l = sampler.posterior()
     log_w = np.asarray(log_w, dtype=float)

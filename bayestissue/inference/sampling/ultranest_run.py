@@ -39,13 +39,12 @@ A failed forward solve is :math:`\\log L = -10^{100}` (UltraNest refuses non-fin
 from __future__ import annotations
 
 import logging
-import time
 from pathlib import Path
 
 import numpy as np
 from scipy.special import logsumexp
 
-from bayestissue.inference.sampling.checkpoints import RunCost, earlier_cost, write_cost
+from bayestissue.inference.sampling.checkpoints import cost_meter, earlier_cost, write_cost
 
 __all__ = ["run_ultranest", "slice_steps"]
 
@@ -91,14 +90,10 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
     import ultranest
     from ultranest import popstepsampler
 
-    n_eval0, n_fail0 = problem.n_evaluations, problem.n_failed
     n_dim, prior, log_l, complete = target
     before = earlier_cost(path, resume)
-    state = {"next": options.report_every, "t0": time.perf_counter()}
-
-    def cost() -> RunCost:
-        return before.plus(problem.n_evaluations - n_eval0, problem.n_failed - n_fail0,
-                           time.perf_counter() - state["t0"])  # fmt: skip
+    cost = cost_meter(before, problem)
+    state = {"next": options.report_every}
 
     def like(x):
         ll = np.asarray(log_l(x), dtype=float)
