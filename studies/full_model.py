@@ -41,6 +41,7 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
     current_hashes,
     model_evidence,
     model_settings,
+    rerun_command,
 )
 from bayestissue.analyses.records import FILES  # noqa: E402
 from bayestissue.inference import NestedOptions, fit_least_squares, fit_multistart, sample_nested  # noqa: E402
@@ -149,14 +150,15 @@ def _summary(case: DataChoice, mode: str) -> str:
     for e in case.models.values():
         lines.append(
             f"## {e.model} ({len(e.names)} parameters; {e.sampler}, {e.n_live} live points, "
-            f"{f'{e.wall_s:.0f} s' if np.isfinite(e.wall_s) else 'resumed over sessions'}; "
+            f"{e.wall_text}; "
             f"code and data {e.numbers_hash})\n"
         )
         agree = "agree" if e.runs_agree else "DISAGREE"
         lines.append(f"log Z {e.merged[0]:.3f} +- {e.merged[1]:.3f}; the runs {agree} on the evidence (scatter p = "
                      f"{e.log_z_p:.2g}, finished {e.finished}, at the peak {e.peak_reached}: best log-likelihood "
                      f"{', '.join(f'{v:.2f}' for v in e.max_log_l)} against the likelihood's peak climbed from the "
-                     f"least-squares optima, {e.reference_log_l:.2f}, less d/2 = {len(e.names) / 2:g})\n")  # fmt: skip
+                     f"least-squares optima, {e.reference_log_l:.2f}, less d/2 = {len(e.names) / 2:g}, d counting the "
+                     f"noise sds)\n")  # fmt: skip
         lines.append(f"posterior: {e.verdict}\n")
         lines.append("| run | log Z | calls | s |\n|---|---|---|---|")
         for k, (z, ze, c, t) in enumerate(zip(e.log_z, e.log_z_err, e.calls, e.time_s, strict=True)):
@@ -186,8 +188,7 @@ def _read_back(path: Path) -> int:
     for data, case in rec.cases.items():
         for model, e in case.models.items():
             current = now[data][model]
-            rerun = f"python studies/full_model.py --full --data {data} --models {model}"
-            stale = f"STALE, the current code is {current} (rerun: {rerun})"
+            stale = f"STALE, the current code is {current} (rerun: {rerun_command(data, [model])})"
             state = "matches the current code" if current == e.numbers_hash else stale
             print(
                 f"[full model] read {path} ({rec.mode}, {data}, {model} model, code and data {e.numbers_hash}): {state}"

@@ -52,6 +52,7 @@ __all__ = [
     "model_evidence",
     "model_settings",
     "numbers_hash",
+    "rerun_command",
 ]
 
 #: The parts of the package the likelihood and the samplers are made of (a change elsewhere, e.g. in the report,
@@ -122,6 +123,11 @@ OVERRIDES = {
 def model_settings(mode: str, data: str, model: str) -> dict:
     """The nested options of ``model`` on ``data`` under ``mode``: :data:`SETTINGS` with :data:`OVERRIDES`."""
     return {**SETTINGS[mode][model], **OVERRIDES.get((mode, data), {}).get(model, {})}
+
+
+def rerun_command(data: str, models) -> str:
+    """The command that (re)runs ``models`` on the data set ``data`` at ``--full`` and keeps the record's others."""
+    return f"python studies/full_model.py --full --data {data} --models {' '.join(models)}"
 
 
 def numbers_hash(data_files, settings: str = "") -> str:
@@ -205,6 +211,11 @@ class ModelEvidence:
         """Whether the runs agree on the evidence (:func:`~bayestissue.analyses.verdicts.evidence_consistent`)."""
         ok = [f and p for f, p in zip(self.finished, self.peak_reached, strict=True)]
         return evidence_consistent(self.log_z_p, ok)
+
+    @property
+    def wall_text(self) -> str:
+        """:attr:`wall_s` as the stage and the report print it ("resumed over sessions" where it is NaN)."""
+        return f"{self.wall_s:.0f} s" if np.isfinite(self.wall_s) else "resumed over sessions"
 
 
 @dataclass(frozen=True)

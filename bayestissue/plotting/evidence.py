@@ -14,8 +14,10 @@ __all__ = ["MODEL_COLOURS", "plot_model_choice"]
 MODEL_COLOURS = {"mirror": "tab:blue", "full": "tab:orange", "scale": "tab:green"}
 
 
-def _material(names) -> int:
-    return sum(not n.startswith("sigma") for n in names)
+def _label(name: str, names) -> str:
+    """``name``, its material parameters and its noise sds (one per test)."""
+    sds = sum(n.startswith("sigma") for n in names)
+    return f"{name}\n{len(names) - sds} parameters\n+ {sds} noise sd{'s' if sds != 1 else ''}"
 
 
 def _evidence(ax, case) -> None:
@@ -26,8 +28,7 @@ def _evidence(ax, case) -> None:
         z, s = e.merged
         ax.axhspan(z - s, z + s, color=c, alpha=0.18, lw=0)
         ax.axhline(z, color=c, lw=1.2, label=f"{name}: merged {z:.2f} +- {s:.2f}")
-    ax.set_xticks(range(len(case.models)), [f"{n}\n{_material(e.names)} parameters\n+ noise sd"
-                                           for n, e in case.models.items()])  # fmt: skip
+    ax.set_xticks(range(len(case.models)), [_label(n, e.names) for n, e in case.models.items()])
     ax.set_ylabel("log evidence per run", fontsize=FONT["label"])
     pairs = [(a, b) for a, b in case.factors if {a, b} <= case.models.keys()]
     if pairs:

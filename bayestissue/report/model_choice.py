@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
-from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord
+from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord, rerun_command
 from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import EVIDENCE_MIN_RUNS, EVIDENCE_P, evidence_decides, evidence_strength
 from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS
@@ -91,26 +91,27 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
     run = {f: _factor(case, *f) for f in case.factors_run}
     choice = run.get(first, {"decides": False})
     scale = case.models.get("scale")
+    stale = None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash]
     return {
         **choice,
         "ran": first in run,
         "c": case,
         "models": list(case.models.values()),
         "projected": {k: _projection(e) for k, e in case.models.items()},
-        "wall": {
-            k: f"{e.wall_s:.0f} s" if np.isfinite(e.wall_s) else "resumed over sessions" for k, e in case.models.items()
-        },
+        "wall": {k: e.wall_text for k, e in case.models.items()},
         "mirror": case.models.get("mirror"),
         "full": case.models.get("full"),
         "others": [run[f] for f in rest if f in run],
         "factors": list(run.values()),
         "pending": [
-            {"a": a, "b": b, "missing": [m for m in (a, b) if m not in case.models]}
+            {"a": a, "b": b, "missing": missing, "rerun": rerun_command(case.data, missing)}
             for a, b in case.factors
             if (a, b) not in run
+            for missing in [[m for m in (a, b) if m not in case.models]]
         ],  # fmt: skip
         "scale_q": None if scale is None else scale.quantile("scale"),
-        "stale": None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash],
+        "stale": stale,
+        "rerun_stale": rerun_command(case.data, stale or []),
         # Table 1 and our least squares exist per test, not for the joint data set
         "rows": _rows(case, I) if case.data in PAPER_PARAMETERS else [],
     }
