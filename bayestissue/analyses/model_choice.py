@@ -114,7 +114,9 @@ SETTINGS = {
 #: (2026-11-27), whose remedy is more steps per new point: 4 per parameter of each joint model, sds included
 #: (mirror 10, full 13, scale 11; tested), i.e. 5.0, 4.7 and 4.9 per sampled dimension (8, 11, 9). At 40 steps the
 #: mirror model's four runs still disagree (log Z 912.04-917.19, own errors 0.39-0.55, p = 1.6e-13; the peak lies on
-#: gamma2's upper bound, docs/verification.md), so these settings are not yet enough either.
+#: gamma2's upper bound, docs/verification.md), so these settings are not yet enough either. UltraNest's mixture
+#: directions at 40 steps (2 runs, 2026-11-30) did not help: log Z 910.48 and 912.89, so the directions stay the
+#: region's.
 OVERRIDES = {
     ("full", "joint"): {"mirror": {"slice_steps": 40}, "full": {"slice_steps": 52}, "scale": {"slice_steps": 44}},
 }
