@@ -82,6 +82,12 @@ def _factor(case: DataChoice, a: str, b: str) -> dict:
     }
 
 
+def _pending(case: DataChoice, a: str, b: str) -> dict:
+    """A factor whose models have not both run: the models it still needs and the command that runs them."""
+    missing = [m for m in (a, b) if m not in case.models]
+    return {"a": a, "b": b, "missing": missing, "rerun": rerun_command(case.data, missing)}
+
+
 def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None) -> dict:
     """The first of the data set's factors (:data:`~bayestissue.analyses.model_choice.FACTORS`: mirror over full)
     chooses the model; the others (the joint data set's stiffness scale over shared parameters) are reported beside
@@ -103,12 +109,7 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
         "full": case.models.get("full"),
         "others": [run[f] for f in rest if f in run],
         "factors": list(run.values()),
-        "pending": [
-            {"a": a, "b": b, "missing": missing, "rerun": rerun_command(case.data, missing)}
-            for a, b in case.factors
-            if (a, b) not in run
-            for missing in [[m for m in (a, b) if m not in case.models]]
-        ],  # fmt: skip
+        "pending": [_pending(case, a, b) for a, b in case.factors if (a, b) not in run],
         "scale_q": None if scale is None else scale.quantile("scale"),
         "stale": stale,
         "rerun_stale": rerun_command(case.data, stale or []),
