@@ -29,8 +29,9 @@ The peak: nested sampling compresses the prior towards the likelihood's peak she
 bounds lose the peak region can end with a consistent-looking but wrong answer. Where the peak is known (the runs'
 likelihood climbed from the least-squares optima, :mod:`~bayestissue.inference.sampling.peak`), every run's largest
 log-likelihood must come within :math:`d/2` of it (``reference_log_l``; :math:`d` the
-number of sampled parameters: posterior draws of a :math:`d`-dimensional Gaussian lie about :math:`d/2` below the
-peak, the best of thousands much closer).
+number of the problem's parameters, its noise sds included also where the runs integrate them out and draw them
+afterwards, which loosens the allowance by half a nat per sd: posterior draws of a :math:`d`-dimensional Gaussian
+lie about :math:`d/2` below the peak, the best of thousands much closer).
 
 The quantiles: each run estimates the 5, 50 and 95 % quantiles of every parameter from its weighted points
 (:func:`weighted_quantile`) and their Monte Carlo error for itself, by a Poisson bootstrap of its points (each point's
@@ -40,7 +41,9 @@ largely the shrinkage's, which reweighting points cannot see; Higson et al. 2018
 errors are right is what independent runs can tell (Higson et al. 2018, doi:10.1093/mnras/sty1185, compare the
 run-to-run scatter with the bootstrap's): per parameter and level, :math:`\\chi^2 = \\sum_k (\\hat q_k -
 \\bar q)^2/\\sigma_k^2` on :math:`n - 1` degrees of freedom must not fall below :math:`p = 0.01/m` (Bonferroni over
-the :math:`m` quantities tested). The pooled draws' quantile then carries the Monte Carlo error
+the :math:`m` quantities tested). The merged estimate is the runs' quantiles averaged
+(:meth:`NestedReport.quantiles`; not the quantile of the pooled draws, which adds the resampling's noise); it carries
+the Monte Carlo error
 :math:`\\max(\\sqrt{\\sum_k \\sigma_k^2}/n,\\ s_{\\hat q}/\\sqrt n)` (the runs' own errors, or their scatter if larger),
 as :attr:`NestedSample.log_z_err` does for the evidence. Points of one run are not independent draws (nautilus's
 shells share their bounds), which is exactly what the comparison checks.
@@ -203,7 +206,7 @@ class NestedReport(ParameterChecks):
 
     @property
     def quantile_mc_error(self) -> np.ndarray:
-        """``(ndim, len(LEVELS))`` Monte Carlo error of the pooled quantiles (module docstring)."""
+        """``(ndim, len(LEVELS))`` Monte Carlo error of :meth:`quantiles` (module docstring)."""
         return runs_mean_error(self.q_runs, self.q_errs)
 
     def _quantile_clause(self) -> str:
