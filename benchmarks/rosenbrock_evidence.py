@@ -19,7 +19,7 @@ Each coordinate's quantiles of the curved, heavy-tailed ridge (x_{j,3} ~ x_1^8) 
 cannot. The runs go through ``sample_nested`` and ``assess_nested`` exactly as a calibration's do.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/rosenbrock_evidence.py [--n-live 1000] [--runs 4] [--figure PNG]
-        [--sampler ultranest [--slice-steps S]]
+        [--sampler ultranest [--slice-steps S] [--population P]]
 """
 
 from __future__ import annotations
@@ -169,6 +169,7 @@ def main(argv=None) -> int:
     ap.add_argument("--sampler", choices=SAMPLERS, default="nautilus", help="the nested engine's sampler")
     ap.add_argument("--slice-steps", type=int, help="UltraNest's slice steps per new point (default 2 per dimension)")
     ap.add_argument("--directions", choices=SLICE_DIRECTIONS, default="region", help="UltraNest's slice directions")
+    ap.add_argument("--population", type=int, default=100, help="UltraNest's chains advanced together (batch size)")
     args = ap.parse_args(argv)
     target = Rosenbrock(blocks=args.blocks, depth=args.depth)
     truth = target.truth(args.exact_draws)
@@ -178,10 +179,11 @@ def main(argv=None) -> int:
           f"{args.exact_draws} exact draws)")  # fmt: skip
     problem = rosenbrock_problem(target)
     opts = NestedOptions(n_live=args.n_live, n_eff=args.n_eff, n_runs=args.runs, n_networks=args.networks,
-                         sampler=args.sampler, slice_steps=args.slice_steps, directions=args.directions)  # fmt: skip
+                         sampler=args.sampler, slice_steps=args.slice_steps, directions=args.directions,
+                         population=args.population)  # fmt: skip
     print(
         f"{args.sampler}: {args.runs} runs of {args.n_live} live points"
-        + (f", {args.directions} directions" if args.sampler == "ultranest" else "")
+        + (f", {args.directions} directions, population {args.population}" if args.sampler == "ultranest" else "")
     )
     t0 = time.perf_counter()
     sample = sample_nested(problem, options=opts, rng=args.seed)
