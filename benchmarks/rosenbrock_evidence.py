@@ -169,7 +169,12 @@ def main(argv=None) -> int:
     ap.add_argument("--sampler", choices=SAMPLERS, default="nautilus", help="the nested engine's sampler")
     ap.add_argument("--slice-steps", type=int, help="UltraNest's slice steps per new point (default 2 per dimension)")
     ap.add_argument("--directions", choices=SLICE_DIRECTIONS, default="region", help="UltraNest's slice directions")
-    ap.add_argument("--population", type=int, default=100, help="UltraNest's chains advanced together (batch size)")
+    ap.add_argument(
+        "--population",
+        type=int,
+        default=NestedOptions.population,
+        help="UltraNest's chains advanced together (batch size)",
+    )
     args = ap.parse_args(argv)
     target = Rosenbrock(blocks=args.blocks, depth=args.depth)
     truth = target.truth(args.exact_draws)
