@@ -40,6 +40,24 @@ def test_the_climb_reaches_a_peak_inside_the_box_and_meets_one_outside_at_its_bo
         assert got == pytest.approx(expected, abs=1e-6)
 
 
+def test_failed_solves_in_the_climb_are_walked_around_without_a_warning(monkeypatch):
+    """A log-likelihood that is -inf (a failed forward solve) on the half u_1 > 0.5 of the box, with its finite peak
+    at u = (0.3, 0.4): the climb from inside the finite half reaches the peak, and Powell's line search through the
+    infinite half raises no RuntimeWarning (this suite turns warnings into errors; the T1 11-parameter fit of
+    tests/cli/test_fit_cli.py met it on this machine's arithmetic)."""
+    box = SimpleNamespace(to_unit=lambda x: np.asarray(x, float), from_unit=lambda u: np.asarray(u, float))
+
+    def log_l(x):
+        u = np.atleast_2d(x)
+        value = 10.0 - 20.0 * np.sum((u - [0.3, 0.4]) ** 2, axis=1)
+        return np.where(u[:, 0] > 0.5, -np.inf, value)
+
+    monkeypatch.setattr(P, "nested_target", lambda problem, options: (2, None, log_l, None))
+    problem = SimpleNamespace(material=box, n_material=2)
+    got = P.climb_log_likelihood(problem, None, np.array([0.45, 0.9]))
+    assert got == pytest.approx(10.0, abs=1e-6)
+
+
 def _two_tests(rng):
     """Two linear tests of one parameter vector, noise sd 0.01 and 1.0, both sds unknown (integrated out)."""
     truth = np.array([0.5, -1.0, 2.0])
