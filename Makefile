@@ -17,8 +17,11 @@ $(STAMP): pyproject.toml
 study: $(STAMP)
 	$(PY) studies/run_study.py $(STUDY_ARGS)
 
+# the suite on every core (pytest-xdist; a worker takes the next test when it is free): 2 workers here
+TEST_WORKERS ?= auto
+
 test: $(STAMP)
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest -n $(TEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .

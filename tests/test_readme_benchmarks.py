@@ -16,7 +16,7 @@ SMOKE = {
     "bench_sensitivity.py": (["--n-sets", "4", "--repeats", "1"], "x a forward run"),
     "bench_overhead.py": (["--sets", "2", "--reps", "3", "--repeats", "1"], "x kernel"),
     "bench_sampling.py": (["--model", "mirror", "--coordinates", "creep", "--moves", "mixture", "--walkers", "36",
-                           "--max-steps", "60", "--adapt-rounds", "1"], "R-hat"),
+                           "--max-steps", "60", "--adapt-rounds", "1", "--adapt-steps", "100"], "R-hat"),
     "bench_micrographs.py": (["--sizes", "120x160", "--sections", "6", "--tile", "120x160"], "px x 6 sections"),
     "coverage_hierarchy.py": (["--reps", "1", "--sizes", "2", "--stage1-steps", "200"],
                               "90 % intervals covering the generating value"),
