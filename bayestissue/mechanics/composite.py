@@ -29,6 +29,7 @@ option, branches; fibre code, parameter count, option, branches; number of famil
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from bayestissue.mechanics._jit import kernel
 from bayestissue.mechanics.laws.dispatch import (
@@ -42,7 +43,31 @@ from bayestissue.mechanics.laws.mooney_rivlin import mooney_rivlin_energy, moone
 from bayestissue.mechanics.laws.prony import branch_offset, branch_parameter_count
 from bayestissue.mechanics.laws.volumetric import volumetric_add
 
-__all__ = ["composite_energy", "composite_stress_tangent", "fibre_offset", "structure_and_strain"]
+__all__ = [
+    "composite_energy",
+    "composite_stress_tangent",
+    "fibre_offset",
+    "scratch",
+    "structure_and_strain",
+    "workspace",
+]
+
+
+@njit(cache=True)
+def workspace():
+    """The scratch arrays of the composite's kernels, packed: ``(w33, w6, w66)`` of shapes (4, 3, 3), (4, 6), (6, 6)
+    (:func:`scratch` names the parts). Packed because numba passes every array argument as 7-11 machine words, all
+    written to the stack at every call: the Newton loop calls the composite at every iteration, and its scratch as
+    nine arrays (as it was) took 44 more words per call than these three."""
+    return np.empty((4, 3, 3)), np.empty((4, 6)), np.empty((6, 6))
+
+
+@njit(cache=True)
+def scratch(ws):
+    """The laws' scratch tuple ``(C, Ci, w, Q, work, G, H)`` (views into the workspace ``ws``): C, Ci, Q, work 3x3;
+    w (6,), of which an eigen solve uses the first three entries; G, H (6,)."""
+    w33, w6, _ = ws
+    return w33[0], w33[1], w6[0], w33[2], w33[3], w6[1], w6[2]
 
 
 @kernel
@@ -70,17 +95,19 @@ def structure_and_strain(lay, p, off, Mk, e, H):
 
 
 @kernel
-def composite_stress_tangent(
-    e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, S, D, tau_m, tau_f, want_tangent, work6, work66, scr
-):
+def composite_stress_tangent(e, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, S, D, want_tangent, ws):
     """Stress ``S`` (6,) and, if ``want_tangent``, tangent ``D`` (6, 6) of the composite at the Voigt strain ``e``.
 
-    ``cm`` (nb_m,), ``qm`` (nb_m, 6): the matrix branches' constants and history terms; ``cf``, ``qf`` (n_f, nb_f)
-    the fibre branches'. Writes the branch stresses to ``tau_m`` (nb_m, 6) and the fibre tensions (after the tension
-    cut; the elastic tension without branches) to ``tau_f`` (n_f, max(nb_f, 1)). ``work6``, ``work66``: scratch;
-    ``scr``: the laws' scratch tuple (C, Ci, w, Q, work, G, H). Returns J (<= 0: inadmissible).
+    ``ms`` (3, max(nb_m, 1), 6): the matrix branches' constants c (each repeated over the six components), history
+    terms q, then the branch stresses tau (written). ``fs`` (3, n_f, max(nb_f, 1)): the fibre branches' constants
+    c, history terms q, then the tensions tau (written; after the tension cut, the elastic tension without
+    branches). ``ws``: the workspace (:func:`workspace`). Returns J (<= 0: inadmissible).
     """
-    C, Ci, w, Q, work, G, H = scr
+    cm, qm, tau_m = ms[0], ms[1], ms[2]
+    cf, qf, tau_f = fs[0], fs[1], fs[2]
+    w33, w6, work66 = ws  # the workspace's parts (as in :func:`scratch`; a call would pass its words again)
+    C, Ci, Q, work = w33[0], w33[1], w33[2], w33[3]
+    w, G, H, work6 = w6[0], w6[1], w6[2], w6[3]
     nb_m = lay[3]
     if nb_m == 0:
         if lay[0] == 0:  # the paper's matrix without the dispatch (fast path: measured below)
@@ -103,36 +130,36 @@ def composite_stress_tangent(
         for b in range(nb_m):
             r = 1.0 if b == 0 else p[ob + branch_offset(b)]
             for i in range(6):
-                t = (r * work6[i] + qm[b, i]) / cm[b]
+                t = (r * work6[i] + qm[b, i]) / cm[b, i]
                 tau_m[b, i] = t
                 S[i] += t
             if want_tangent:
                 for i in range(6):
                     for j in range(6):
-                        D[i, j] += r * work66[i, j] / cm[b]
+                        D[i, j] += r * work66[i, j] / cm[b, 0]
         volumetric_add(J, bulk, Ci, S, D, want_tangent)
     nb_f = lay[7]
     for k in range(lay[8]):
         off = fibre_offset(lay, k)
-        if lay[4] == 0:  # the paper's linear fibre without the dispatch (fast path), on M_k
-            eps = M[k, 0] * e[0] + M[k, 1] * e[1] + M[k, 2] * e[2]
-            eps += 2.0 * (M[k, 3] * e[3] + M[k, 4] * e[4] + M[k, 5] * e[5])
-            for i in range(6):
-                H[i] = M[k, i]
+        if lay[4] == 0:  # the paper's linear fibre without the dispatch (fast path), on M_k itself
+            Hk = M[k]
+            eps = Hk[0] * e[0] + Hk[1] * e[1] + Hk[2] * e[2]
+            eps += 2.0 * (Hk[3] * e[3] + Hk[4] * e[4] + Hk[5] * e[5])
             sig, dsig = p[off] * (eps - eps0[k]), p[off]
         else:
             eps = structure_and_strain(lay, p, off, M[k], e, H)
+            Hk = H
             sig, dsig = fibre_stress(lay[4], lay[6], eps - eps0[k], p, off)
         if nb_f == 0:
             tau_f[k, 0] = sig if sig > 0.0 else 0.0
             if sig > 0.0:
                 for i in range(6):
-                    S[i] += phi_f[k] * sig * H[i]
+                    S[i] += phi_f[k] * sig * Hk[i]
                 if want_tangent:
                     g = phi_f[k] * dsig
                     for i in range(6):
                         for j in range(6):
-                            D[i, j] += g * H[i] * H[j] * (1.0 if j < 3 else 2.0)
+                            D[i, j] += g * Hk[i] * Hk[j] * (1.0 if j < 3 else 2.0)
             continue
         ob = off + lay[5]
         for b in range(nb_f):
@@ -141,21 +168,26 @@ def composite_stress_tangent(
             if trial > 0.0:
                 tau_f[k, b] = trial
                 for i in range(6):
-                    S[i] += phi_f[k] * trial * H[i]
+                    S[i] += phi_f[k] * trial * Hk[i]
                 if want_tangent:
                     g = phi_f[k] * (r * dsig) / cf[k, b]
                     for i in range(6):
                         for j in range(6):
-                            D[i, j] += g * H[i] * H[j] * (1.0 if j < 3 else 2.0)
+                            D[i, j] += g * Hk[i] * Hk[j] * (1.0 if j < 3 else 2.0)
             else:
                 tau_f[k, b] = 0.0
     return J
 
 
 @kernel
-def composite_energy(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, work6, scr):
-    """The incremental potential at ``e`` (module docstring); NaN if inadmissible."""
-    C, Ci, w, Q, work, G, H = scr
+def composite_energy(e, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, ws):
+    """The incremental potential at ``e`` (module docstring); NaN if inadmissible. Arguments as for
+    :func:`composite_stress_tangent`."""
+    cm, qm = ms[0], ms[1]
+    cf, qf = fs[0], fs[1]
+    w33, w6, _ = ws
+    C, Ci, Q, work = w33[0], w33[1], w33[2], w33[3]
+    w, G, H = w6[0], w6[1], w6[2]
     nb_m = lay[3]
     if nb_m == 0 and lay[0] == 0:  # fast path, as in the stress
         total = mooney_rivlin_energy(e, p[0], p[1], phi_m, bulk, C, Ci)
@@ -169,7 +201,7 @@ def composite_energy(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, wor
             r = 1.0 if b == 0 else p[ob + branch_offset(b)]
             qe = qm[b, 0] * e[0] + qm[b, 1] * e[1] + qm[b, 2] * e[2]
             qe += 2.0 * (qm[b, 3] * e[3] + qm[b, 4] * e[4] + qm[b, 5] * e[5])
-            total += (r * wi + qe) / cm[b]
+            total += (r * wi + qe) / cm[b, 0]
         det = C[0, 0] * (C[1, 1] * C[2, 2] - C[1, 2] * C[2, 1]) - C[0, 1] * (C[1, 0] * C[2, 2] - C[1, 2] * C[2, 0])
         det += C[0, 2] * (C[1, 0] * C[2, 1] - C[1, 1] * C[2, 0])
         total += 0.5 * bulk * (np.sqrt(det) - 1.0) ** 2

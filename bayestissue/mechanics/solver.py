@@ -42,7 +42,9 @@ from bayestissue.mechanics.composite import (
     composite_energy,
     composite_stress_tangent,
     fibre_offset,
+    scratch,
     structure_and_strain,
+    workspace,
 )
 from bayestissue.mechanics.laws.dispatch import fibre_stress
 from bayestissue.mechanics.laws.prony import branch_constants, branch_offset
@@ -117,15 +119,17 @@ def _fix(kinds, R, D):
 
 
 @kernel
-def _set_targets(kinds, targets, e):
+def _set_targets(kinds, targets_all, n, e):
+    """The prescribed components of step ``n`` into ``e``."""
     for i in range(6):
         if kinds[i] >= 2:
-            e[i] = targets[i]
+            e[i] = targets_all[n, i]
 
 
-@kernel
+@njit(cache=True, fastmath=_FASTMATH, inline="always")
 def _observe(channels, kinds, values, n, e, S, lengths, out):
-    """The observed channels at the converged step (module docstring)."""
+    """The observed channels at the converged step (module docstring). Inlined in the time loop: a call would cost
+    more than the work (its arguments are about 50 machine words, written once per step)."""
     for c in range(channels.shape[0]):
         kind = channels[c, 0]
         i = channels[c, 1]
@@ -139,8 +143,10 @@ def _observe(channels, kinds, values, n, e, S, lengths, out):
 
 
 @kernel
-def _tensions(e, p, lay, M, eps0, cf, qf, tau_f, H):
-    """The fibre branches' tensions at ``e`` (the history needs them; the stress is not recomputed)."""
+def _tensions(e, p, lay, M, eps0, fs, H):
+    """The fibre branches' tensions at ``e`` into ``fs[2]`` (the history needs them; the stress is not recomputed).
+    ``fs`` as for the composite (its branches' constants, history terms, tensions)."""
+    cf, qf, tau_f = fs[0], fs[1], fs[2]
     nb_f = lay[7]
     for k in range(lay[8]):
         off = fibre_offset(lay, k)
@@ -193,25 +199,26 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
     e_prev2 = np.empty(6)
     e_prev3 = np.empty(6)
     obs = np.empty(n_ch)
-    work6 = np.empty(6)
-    work66 = np.empty((6, 6))
-    scr = (np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty(6),
-           np.empty(6))  # fmt: skip
+    ws = workspace()  # the composite's scratch, packed (composite.workspace says why)
+    scr = scratch(ws)
     am = np.empty(max(nb_m, 1))
     bm = np.empty(max(nb_m, 1))
     cm = np.ones(max(nb_m, 1))
     gm = np.empty(max(nb_m, 1))
-    qm = np.zeros((max(nb_m, 1), 6))
+    # the composite's matrix-branch state: constants (cm repeated over the six components), history terms, stresses
+    ms = np.ones((3, max(nb_m, 1), 6))
+    qm, tau_m = ms[1], ms[2]
+    qm[:, :] = 0.0
+    tau_m[:, :] = 0.0
     hm = np.zeros((max(nb_m, 1), 6))
-    tau_m = np.zeros((max(nb_m, 1), 6))
     tau_m_old = np.zeros((max(nb_m, 1), 6))
     af = np.empty((nf, nbf1))
     bf = np.empty((nf, nbf1))
-    cf = np.ones((nf, nbf1))
     gf = np.zeros((nf, nbf1))
-    qf = np.zeros((nf, nbf1))
+    fs = np.zeros((3, nf, nbf1))  # the composite's fibre-branch state: constants, history terms, tensions
+    cf, qf, tau_f = fs[0], fs[1], fs[2]
+    cf[:, :] = 1.0
     hf = np.zeros((nf, nbf1))
-    tau_f = np.zeros((nf, nbf1))
     tau_f_old = np.zeros((nf, nbf1))
     sens = SensitivityState(n_p, nf, nbf1, max(nb_m, 1), n_ch, dout is not None)
     # flat views of the fibre branches' arrays (C order: family-major), for the per-step updates
@@ -243,6 +250,8 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
             o = ob + branch_offset(b) + (1 if b > 0 else 0)
             gm[b] = p[o]
             am[b], bm[b], cm[b] = branch_constants(p[o], p[o + 1], dt)
+            for i in range(6):
+                ms[0, b, i] = cm[b]
             for i in range(6):
                 hm[b, i] = 0.0
                 tau_m_old[b, i] = 0.0
@@ -282,7 +291,6 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
         total_iter = 0
         for n in range(1, n_t):
             Pmax = pmax[n]
-            targets = targets_all[n]
             for b in range(nb_m):
                 for i in range(6):
                     qm[b, i] = gm[b] * (am[b] * hm[b, i] - bm[b] * tau_m_old[b, i])
@@ -295,7 +303,7 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
                 for i in range(6):
                     e[i] = 2.0 * e_prev[i] - e_prev2[i]
             if prescribed:
-                _set_targets(kinds, targets, e)
+                _set_targets(kinds, targets_all, n, e)
             tol = RTOL * Pmax
             alpha = 1.0
             have_old = False
@@ -309,8 +317,7 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
             converged = False
             fresh = False  # the tensions in tau_f are those of the current e
             while True:
-                J = composite_stress_tangent(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, R, D, tau_m,
-                                             tau_f, True, work6, work66, scr)  # fmt: skip
+                J = composite_stress_tangent(e, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, R, D, True, ws)
                 fresh = True
                 if J > 0.0:
                     for li in range(n_loaded):  # the dead loads (written here: a call costs more than the work)
@@ -334,11 +341,10 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
                     elif rn2 > (1.0 - 1e-4 * alpha) ** 2 * rn_old:
                         # residual did not decrease: accept if the potential decreased enough (Armijo)
                         if not have_pot_old:
-                            pot_old = _potential(e_old, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, kinds,
-                                                 values, n, work6, scr)  # fmt: skip
+                            pot_old = _potential(e_old, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, kinds,
+                                                 values, n, ws)  # fmt: skip
                             have_pot_old = True
-                        pot = _potential(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, kinds, values, n,
-                                         work6, scr)  # fmt: skip
+                        pot = _potential(e, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, kinds, values, n, ws)
                         reject = not (pot <= pot_old + 1e-4 * alpha * slope)
                 if reject:
                     n_half += 1  # backtrack along the Newton direction
@@ -355,7 +361,7 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
                     fallback = True  # extrapolated guess inadmissible: restart from the last state
                     for i in range(6):
                         e[i] = e_prev[i]
-                    _set_targets(kinds, targets, e)
+                    _set_targets(kinds, targets_all, n, e)
                     continue
                 if rinf <= tol:
                     converged = True
@@ -396,10 +402,10 @@ def solve_batch(params, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, dt, len
                 break
             if not fresh or stress_needed:
                 if stress_needed:  # the stress (and every tension) at e
-                    composite_stress_tangent(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, R, D, tau_m,
-                                             tau_f, dout is not None, work6, work66, scr)  # fmt: skip
+                    composite_stress_tangent(e, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, R, D,
+                                             dout is not None, ws)  # fmt: skip
                 else:
-                    _tensions(e, p, lay, M, eps0, cf, qf, tau_f, scr[6])
+                    _tensions(e, p, lay, M, eps0, fs, scr[6])
             _observe(channels, kinds, values, n, e, R, lengths, obs)
             if dout is not None:
                 if not sensitivity_step(sens, e, p, lay, M, phi_f, phi_m, bulk, eps0, kinds, values, n, dt, lengths,
@@ -459,9 +465,9 @@ def _needs_stress(channels):
 
 
 @kernel
-def _potential(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, kinds, values, n, work6, scr):
+def _potential(e, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, kinds, values, n, ws):
     """The incremental potential of the step: the composite's minus the work of the dead loads; its gradient is R."""
-    w = composite_energy(e, p, lay, M, phi_f, phi_m, bulk, eps0, cm, qm, cf, qf, work6, scr)
+    w = composite_energy(e, p, lay, M, phi_f, phi_m, bulk, eps0, ms, fs, ws)
     for i in range(3):
         if kinds[i] == 1:
             w -= values[n, i] * (np.sqrt(1.0 + 2.0 * e[i]) - 1.0)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from bayestissue.mechanics import PAPER_TISSUE
-from bayestissue.mechanics.composite import composite_stress_tangent
+from bayestissue.mechanics.composite import composite_stress_tangent, workspace
 from bayestissue.mechanics.fibres import fibre_structure
 from bayestissue.mechanics.kinematics import from_voigt, to_voigt
 from bayestissue.mechanics.reference import reference_stress
@@ -23,11 +23,12 @@ PARAMS = np.array([MU, KAPPA, *np.column_stack([GINF, [0.5] * 3, [1.0] * 3]).rav
 def stress(e, q, *, load=0.0, tangent=False):
     """The composite's stress (minus a dead load P11 = ``load`` on face x) with fixed Kelvin constants ``C_K`` and
     history terms ``q`` (one branch per family)."""
-    S, D, tau, e = np.empty(6), np.empty((6, 6)), np.empty((3, 1)), np.asarray(e, float)
-    scr = tuple(np.empty(s) for s in ((3, 3), (3, 3), 3, (3, 3), (3, 3), 6, 6))
-    J = composite_stress_tangent(e, PARAMS, PAPER_TISSUE.layout, M, PHI, PHI_M, K, EPS0, np.ones(1), np.zeros((1, 6)),
-                                 C_K[:, None].copy(), np.asarray(q, float)[:, None].copy(), S, D, np.empty((1, 6)), tau,
-                                 tangent, np.empty(6), np.empty((6, 6)), scr)  # fmt: skip
+    S, D, e = np.empty(6), np.empty((6, 6)), np.asarray(e, float)
+    fs = np.stack([C_K[:, None], np.asarray(q, float)[:, None], np.empty((3, 1))])  # c, q, tau (written)
+    ms = np.stack([np.ones((1, 6)), np.zeros((1, 6)), np.empty((1, 6))])  # no matrix branch: c, q, tau
+    J = composite_stress_tangent(e, PARAMS, PAPER_TISSUE.layout, M, PHI, PHI_M, K, EPS0, ms, fs, S, D, tangent,
+                                 workspace())  # fmt: skip
+    tau = fs[2]
     assert J > 0
     c11 = 1.0 + 2.0 * e[0]  # the dead load as the solver adds it (mechanics/solver.py, kind 1)
     S[0] -= load / np.sqrt(c11)

@@ -12,7 +12,7 @@ import pytest
 
 from bayestissue._validation import ValidationError
 from bayestissue.mechanics import TissueConfig
-from bayestissue.mechanics.composite import composite_energy, composite_stress_tangent
+from bayestissue.mechanics.composite import composite_energy, composite_stress_tangent, workspace
 from bayestissue.mechanics.fibres import fibre_structure
 from bayestissue.mechanics.kinematics import from_voigt, to_voigt
 from bayestissue.mechanics.laws import FIBRE_LAWS, MATRIX_LAWS, fibre_law, laws_markdown, matrix_law
@@ -38,8 +38,14 @@ FIBRES = [
 ]
 
 
-def _scratch():
-    return tuple(np.empty(s) for s in ((3, 3), (3, 3), 3, (3, 3), (3, 3), 6, 6))
+def _matrix_state():
+    """No matrix branch: c = 1, q = 0, tau written."""
+    return np.stack([np.ones((1, 6)), np.zeros((1, 6)), np.empty((1, 6))])
+
+
+def _fibre_state(nf):
+    """One elastic branch per family: c = 1, q = 0, tau written."""
+    return np.stack([np.ones((max(nf, 1), 1)), np.zeros((max(nf, 1), 1)), np.empty((max(nf, 1), 1))])
 
 
 def _tissue(matrix=None, fibre=None, direction=V):
@@ -59,9 +65,8 @@ def stress(tissue, p, e, tangent=True):
     nf = tissue.n_fibres
     J = composite_stress_tangent(
         np.asarray(e, float), p, tissue.layout, fibre_structure(tissue.directions).reshape(-1, 6),
-        np.asarray(tissue.phi_fibres), tissue.phi_matrix, tissue.bulk_kpa, np.zeros(nf), np.ones(1),
-        np.zeros((1, 6)), np.ones((max(nf, 1), 1)), np.zeros((max(nf, 1), 1)), S, D, np.empty((1, 6)),
-        np.empty((max(nf, 1), 1)), tangent, np.empty(6), np.empty((6, 6)), _scratch(),
+        np.asarray(tissue.phi_fibres), tissue.phi_matrix, tissue.bulk_kpa, np.zeros(nf), _matrix_state(),
+        _fibre_state(nf), S, D, tangent, workspace(),
     )  # fmt: skip
     assert J > 0
     return S, D
@@ -156,8 +161,8 @@ def test_energy_is_the_potential_of_the_stress(name, tissue, vals):
     for e in _strains(np.random.default_rng(3)):
         w = composite_energy(
             e, p, tissue.layout, fibre_structure(tissue.directions).reshape(-1, 6), np.asarray(tissue.phi_fibres),
-            tissue.phi_matrix, tissue.bulk_kpa, np.zeros(nf), np.ones(1), np.zeros((1, 6)),
-            np.ones((max(nf, 1), 1)), np.zeros((max(nf, 1), 1)), np.empty(6), _scratch(),
+            tissue.phi_matrix, tissue.bulk_kpa, np.zeros(nf), _matrix_state(), _fibre_state(nf),
+            workspace(),
         )  # fmt: skip
         assert w == pytest.approx(energy_reference(tissue, p, from_voigt(e)), rel=1e-10, abs=1e-12)
 
