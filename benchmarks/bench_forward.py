@@ -50,10 +50,9 @@ def draw_box(n: int, rng) -> np.ndarray:
     return p
 
 
-def legacy_ratio(exp, sets: np.ndarray, rounds: int) -> tuple[list[float], float, float]:
-    """Per round, time(plug-in kernel) / time(frozen pre-plug-in kernel) on the same ``sets`` (alternating order,
-    the plug-in first in even rounds); also the best time per set of each (s). Both fill arrays only (no
-    observation at the data times), so the ratio is of the kernels alone."""
+def kernel_runs(exp, sets: np.ndarray):
+    """``(run_new, run_legacy)``: callables that run the plug-in kernel and the frozen pre-plug-in kernel on
+    ``sets`` (rows of T1 parameters), filling arrays only (no observation at the data times)."""
     fm, t = ForwardModel(exp), exp.tissue
     sets = np.ascontiguousarray(sets)
     n = sets.shape[0]
@@ -67,6 +66,16 @@ def legacy_ratio(exp, sets: np.ndarray, rounds: int) -> tuple[list[float], float
 
     def run_new():
         fm._run(sets, False, False)
+
+    return run_new, run_legacy
+
+
+def legacy_ratio(exp, sets: np.ndarray, rounds: int) -> tuple[list[float], float, float]:
+    """Per round, time(plug-in kernel) / time(frozen pre-plug-in kernel) on the same ``sets`` (alternating order,
+    the plug-in first in even rounds); also the best time per set of each (s). Both fill arrays only
+    (:func:`kernel_runs`), so the ratio is of the kernels alone."""
+    n = sets.shape[0]
+    run_new, run_legacy = kernel_runs(exp, sets)
 
     run_new(), run_legacy()  # compile / load outside the timing
     ratios, best_new, best_old = [], np.inf, np.inf

@@ -42,29 +42,16 @@ def drive(kernel: str, n_sets: int, calls: int) -> None:
     import numpy as np
 
     from bayestissue.mechanics import load_experiment
-    from bayestissue.mechanics.fibres import fibre_structure
-    from bayestissue.mechanics.forward import ForwardModel
-    from benchmarks.bench_forward import draw_box
-    from benchmarks.legacy_kernel import legacy_solve_uniaxial_batch
+    from benchmarks.bench_forward import draw_box, kernel_runs
 
     exp = load_experiment(ROOT / "data" / "T1.toml")
-    sets = np.ascontiguousarray(draw_box(n_sets, np.random.default_rng(1)))
-    fm, t = ForwardModel(exp), exp.tissue
-    out, ok = np.empty((n_sets, fm.load.size)), np.empty(n_sets, dtype=bool)
-    args = (fibre_structure(t.directions), np.ascontiguousarray(t.phi_fibres), t.phi_matrix, t.bulk_kpa,
-            np.ascontiguousarray(t.eps0), fm.load, exp.dt_s, exp.specimen_mm[0])  # fmt: skip
+    sets = draw_box(n_sets, np.random.default_rng(1))
+    pick = 0 if kernel == "plugin" else 1
+    warm, run = kernel_runs(exp, sets[:2])[pick], kernel_runs(exp, sets)[pick]
 
-    def run(s):
-        if kernel == "plugin":
-            fm._run(s, False, False)
-        else:
-            n = len(s)
-            legacy_solve_uniaxial_batch(s, *args, out[:n], ok[:n], np.empty((1, 1, 6)), np.empty((1, 1, 3)), False,
-                                        np.zeros(n, dtype=np.int64), False)  # fmt: skip
-
-    run(sets[:2])
+    warm()
     for _ in range(calls):
-        run(sets)
+        run()
 
 
 def main(argv=None) -> dict:
