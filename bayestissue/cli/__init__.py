@@ -3,7 +3,8 @@
 Each sub-command lives in its own module ``bayestissue/cli/<name>.py`` exposing ``register(subparsers)``,
 which adds its parser and sets ``func(args) -> int``. This is the only layer that prints. Bad input
 (``ValueError``, ``FileNotFoundError``) is reported as one line on stderr and exit status 2, never a traceback;
-the output paths a command declares are checked before it runs. Any other ``OSError`` is one line and status 1.
+the output paths a command declares are checked before it runs. Any other ``OSError``, and a nested run whose
+sampler stalled (``SamplerStalled``), is one line and status 1.
 """
 
 from __future__ import annotations
@@ -105,6 +106,15 @@ def main(argv: list[str] | None = None) -> int:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"bayestissue {args.command}: error: {msg}", file=sys.stderr)
         return 2
+    except RuntimeError as exc:  # a sampler that stopped making progress (the checkpoints are kept)
+        from bayestissue.inference.sampling.ultranest_run import SamplerStalled
+
+        if not isinstance(exc, SamplerStalled):
+            raise
+        out = getattr(args, "out", None)
+        print(f"bayestissue {args.command}: error: {exc}" + (f"; what it checkpointed is in {out}" if out else ""),
+              file=sys.stderr)  # fmt: skip
+        return 1
     except OSError as exc:  # a path the checks could not foresee (disk full, permissions changed while running)
         where = f": {exc.filename}" if exc.filename else ""
         print(f"bayestissue {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)

@@ -193,3 +193,33 @@ def test_fit_nested_engine_with_ultranest_checkpoints_and_resumes(tmp_path, caps
     assert "resuming" in again and "run 0 at " in again and "evaluations" in again
     back = read_inference_data(out / "posterior.nc").posterior.attrs
     assert abs(back["log_evidence"] - attrs["log_evidence"]) < 4 * attrs["log_evidence_err"]
+
+
+def test_fit_reports_a_stalled_ultranest_run_in_one_line(tmp_path, capsys, monkeypatch):
+    """A run whose step sampler stops producing points (UltraNest issues #166 / #177, stood in for by a sampler
+    that evaluates one point over and over): ``fit`` ends with status 1 and one line naming the run, the calls and
+    the way out, no traceback; the run's ledger is kept."""
+    from ultranest import popstepsampler
+
+    original = popstepsampler.PopulationSliceSampler
+
+    class Stuck(original):
+        def __next__(self, region, Lmin, us, Ls, transform, loglike, **kwargs):
+            loglike(transform(np.repeat(us[:1], self.popsize, axis=0)))
+            return None, None, None, self.popsize
+
+    monkeypatch.setattr(popstepsampler, "PopulationSliceSampler", Stuck)
+    cfg = _config(
+        tmp_path,
+        '[parameters]\nsampled = ["mu", "kappa"]\n[warmstart]\nn_starts = 0\n[sampler]\nseed = 5\n'
+        '[nested]\nsampler = "ultranest"\nn_live = 50\nn_runs = 1\nn_processes = 1\npopulation = 2\nslice_steps = 2\n',
+    )
+    out = tmp_path / "out"
+    argv = ["fit", str(DATA / "T2.toml"), "--config", cfg, "--out", str(out), "--engine", "nested"]
+    code = main([*argv, "--no-figures", "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert "nested run 0 (UltraNest) stalled: no new point in 80" in err  # limit 200 x 2 x 2 = 800 calls
+    assert 'sampler = "nautilus"' in err and str(out) in err
+    assert (out / "checkpoints" / "nested_0.cost.json").is_file()

@@ -3,6 +3,7 @@ evidence, the insertion-order test failing a biased run and passing a fair one, 
 the stored result. Small runs (150-200 live points) keep each test to seconds; tolerances are stated against the
 runs' own errors."""
 
+import json
 import sys
 from pathlib import Path
 
@@ -186,3 +187,36 @@ def test_inference_data_names_the_sampler_and_carries_the_insertion_test(linear_
 def test_ultranest_option_errors_name_the_field(kw, field):
     with pytest.raises(ValidationError, match=field):
         NestedOptions(**kw)
+
+
+def _stuck(sampler_class):
+    """UltraNest's population slice sampler in the state of its issues #166 / #177: every step evaluates the same
+    point again and no walker ever finishes (``logl`` None)."""
+
+    class Stuck(sampler_class):
+        def __next__(self, region, Lmin, us, Ls, transform, loglike, **kwargs):
+            loglike(transform(np.repeat(us[:1], self.popsize, axis=0)))
+            return None, None, None, self.popsize
+
+    return Stuck
+
+
+def test_a_stalled_run_raises_and_names_its_calls(monkeypatch, tmp_path):
+    """A step sampler that keeps calling the likelihood without producing a point: the run raises SamplerStalled
+    once STALL_FACTOR x population x slice_steps calls have passed without a new point (here 200 x 10 x 6 = 12 000
+    on the 3-parameter stand-in; a working run makes at most a few hundred per point), and its cost is written.
+    Control: the working runs of the same problem above produce their points and finish."""
+    from ultranest import popstepsampler
+
+    from bayestissue.inference.sampling import ultranest_run
+
+    monkeypatch.setattr(popstepsampler, "PopulationSliceSampler", _stuck(popstepsampler.PopulationSliceSampler))
+    problem, _ = linear_gaussian_problem(n_obs=40, n_params=3, sd=0.1, box=20.0, rng=1)
+    opts = NestedOptions(**ULTRA, n_runs=1, n_processes=1, population=10, slice_steps=6)
+    assert ultranest_run.stall_limit(opts, 3) == 12_000
+    with pytest.raises(
+        ultranest_run.SamplerStalled, match=r"nested run 0 \(UltraNest\) stalled: no new point in 120\d\d "
+    ):
+        sample_nested(problem, options=opts, rng=3, checkpoint=tmp_path)
+    ledger = json.loads((tmp_path / "nested_0.cost.json").read_text())
+    assert 12_000 < ledger["calls"] <= 200 + 12_000 + 10  # the live points, the limit, one more batch

@@ -34,6 +34,14 @@ run). Its log directory (``checkpoint``) holds the points (``results/points.hdf5
 resumed run replays them without calling the likelihood, and its calls, failed solves and seconds are those of all
 its sessions (:func:`~.checkpoints.earlier_cost`).
 A failed forward solve is :math:`\\log L = -10^{100}` (UltraNest refuses non-finite values), counted.
+
+**A stalled run ends with an error.** UltraNest's population slice sampler can stop producing points while it goes
+on calling the likelihood (UltraNest issues #166 and #177: the same point evaluated over and over; resuming runs a
+little further, then stalls again). Seen here on the tendon relaxation preset with three branches (population 10,
+22 steps): no new point after the first 60 iterations and 1.5 M calls in 12 minutes. A run makes at most about
+``population * slice_steps`` calls per new point when it works (each walker's steps, a few shrinkages each); after
+:data:`STALL_FACTOR` times that many calls without a new point the run raises :class:`SamplerStalled`, naming the
+run, the calls and the iteration reached; what it checkpointed is kept.
 """
 
 from __future__ import annotations
@@ -46,7 +54,7 @@ from scipy.special import logsumexp
 
 from bayestissue.inference.sampling.checkpoints import cost_meter, earlier_cost, write_cost
 
-__all__ = ["run_ultranest", "slice_steps"]
+__all__ = ["SamplerStalled", "STALL_FACTOR", "run_ultranest", "slice_steps", "stall_limit"]
 
 #: stand-in for log L = -inf (UltraNest's own choice for non-finite values)
 _FLOOR = -1e100
@@ -54,6 +62,14 @@ _FLOOR = -1e100
 _N_BOOT = 100
 #: iterations per expected 4-sigma alarm of the insertion test in an unbiased run (Buchner 2023, sec. 4.5.2)
 _QUIET_ITERATIONS = 10**5.5
+
+
+#: calls without a new point, in units of ``population * slice_steps``, after which a run counts as stalled
+STALL_FACTOR = 200
+
+
+class SamplerStalled(RuntimeError):
+    """Raised by a run of the UltraNest engine whose step sampler stopped producing points (module docstring)."""
 
 
 #: :data:`~.nested.SLICE_DIRECTIONS` -> UltraNest's direction generator (``ultranest.stepfuncs``)
@@ -64,6 +80,28 @@ def slice_steps(options, n_dim: int) -> int:
     """Slice steps of each new point: ``options.slice_steps``, or two per sampled dimension ``n_dim``
     (:func:`~.nested.nested_target`'s: without the noise sds where they are integrated out)."""
     return options.slice_steps or 2 * n_dim
+
+
+def stall_limit(options, n_dim: int) -> int:
+    """Likelihood calls without a new point after which a run has stalled: :data:`STALL_FACTOR` x ``population``
+    x :func:`slice_steps`."""
+    return STALL_FACTOR * options.population * slice_steps(options, n_dim)
+
+
+def _counting(step_class):
+    """``step_class`` (a population step sampler) counting the points it hands to the integrator (``produced``:
+    a step returns ``logl`` None while no walker has finished)."""
+
+    class Counting(step_class):
+        produced = 0
+
+        def __next__(self, *args, **kwargs):
+            out = super().__next__(*args, **kwargs)
+            if out[2] is not None:
+                self.produced += 1
+            return out
+
+    return Counting
 
 
 def _own_log() -> None:
@@ -93,11 +131,28 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
     n_dim, prior, log_l, complete = target
     before = earlier_cost(path, resume)
     cost = cost_meter(before, problem)
-    state = {"next": options.report_every}
+    state = {"next": options.report_every, "produced": 0, "calls_at": before.calls}
+    limit = stall_limit(options, n_dim)
+    step = _counting(popstepsampler.PopulationSliceSampler)(
+        popsize=options.population,
+        nsteps=slice_steps(options, n_dim),
+        generate_direction=getattr(popstepsampler, _DIRECTIONS[options.directions]),
+    )
 
     def like(x):
         ll = np.asarray(log_l(x), dtype=float)
         so_far = cost()
+        if step.produced != state["produced"]:
+            state["produced"], state["calls_at"] = step.produced, so_far.calls
+        elif so_far.calls - state["calls_at"] > limit:
+            write_cost(path, so_far)
+            raise SamplerStalled(
+                f"nested run {k} (UltraNest) stalled: no new point in {so_far.calls - state['calls_at']} likelihood "
+                f"calls (limit {STALL_FACTOR} x population {options.population} x {slice_steps(options, n_dim)} "
+                f"slice steps) after {step.produced} points from its step sampler, {so_far.calls} calls in all: "
+                "UltraNest's population slice sampler is stuck (its issues #166 and #177); use [nested] sampler = "
+                '"nautilus" for this problem'
+            )
         if so_far.calls >= state["next"]:  # the run's evaluations over all its sessions
             write_cost(path, so_far)
             if progress is not None:
@@ -124,11 +179,7 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
             num_bootstraps=_N_BOOT,
         )
         _quiet()
-        sampler.stepsampler = popstepsampler.PopulationSliceSampler(
-            popsize=options.population,
-            nsteps=slice_steps(options, n_dim),
-            generate_direction=getattr(popstepsampler, _DIRECTIONS[options.directions]),
-        )
+        sampler.stepsampler = step
         result = sampler.run(
             min_num_live_points=options.n_live,
             frac_remain=options.f_live,
