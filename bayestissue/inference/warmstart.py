@@ -22,7 +22,10 @@ which are only meaningful for parameters away from the bounds and directions the
 variances).
 
 :func:`fit_multistart` repeats the fit from a Latin hypercube of starts in the scaled box (the
-sampler's :math:`u`-space) and clusters the optima by their cost.
+sampler's :math:`u`-space) and clusters the optima by their cost. A start from which the fit cannot move
+(no iteration: the gradient :math:`J^T r` vanishes there, as when a recruitment stretch lies beyond the
+test's largest stretch so that no fibre carries load, or every forward solve near it fails) is replaced
+by a uniform draw in the same box, at most ``max_redraws`` times per start; the result counts them.
 """
 
 from __future__ import annotations
@@ -312,6 +315,7 @@ class MultistartResult:
     time_s: float
     n_failed: int = 0
     names: tuple[str, ...] = field(default=())
+    n_redrawn: int = 0
 
     @property
     def best(self) -> LeastSquaresResult:
@@ -336,6 +340,7 @@ def fit_multistart(
     include_initial: bool = True,
     cost_rtol: float = 1e-3,
     rng=None,
+    max_redraws: int = 30,
     progress: Callable[[int, int, LeastSquaresResult], None] | None = None,
     **options,
 ) -> MultistartResult:
@@ -349,27 +354,40 @@ def fit_multistart(
     :math:`\\alpha^0`).
     cost_rtol : relative cost tolerance for :func:`cluster_optima`.
     rng : seed or Generator.
-    progress : ``progress(k, n, result)`` after start ``k`` of ``n`` (from 1).
+    max_redraws : random starts from which the fit made no iteration are replaced by uniform draws in the
+        same box, at most this many times per start (the last such fit is kept); the paper's start is
+        never replaced.
+    progress : ``progress(k, n, result)`` after start ``k`` of ``n`` (from 1), for the kept fit.
     **options : passed to :func:`fit_least_squares` (``x_scale`` defaults to each start, as in the
     paper).
     """
     rng = np.random.default_rng(rng)
     if int(n_starts) < 0:
         raise ValidationError("n_starts", n_starts, "an integer >= 0")
+    if int(max_redraws) < 0:
+        raise ValidationError("max_redraws", max_redraws, "an integer >= 0")
     mat = problem.material
     u = latin_hypercube(int(n_starts), mat.n_sampled, rng=rng)
     u = 0.02 + 0.96 * u  # keep starts off the bounds
-    starts = list(mat.from_unit(u)) if n_starts else []
+    starts = [(x, True) for x in mat.from_unit(u)] if n_starts else []
     if include_initial:
-        starts.insert(0, mat.initial)
+        starts.insert(0, (mat.initial, False))
     if not starts:
         raise ValidationError("n_starts", n_starts, "at least one start (or include_initial=True)")
     t0 = time.perf_counter()
-    results = []
-    for x0 in starts:
-        results.append(fit_least_squares(problem, x0, **options))
+    results, n_redrawn = [], 0
+    for x0, random_start in starts:
+        fit = fit_least_squares(problem, x0, **options)
+        for _ in range(int(max_redraws) if random_start else 0):
+            if fit.nit > 0:
+                break
+            n_redrawn += 1
+            fit = fit_least_squares(problem, mat.from_unit(0.02 + 0.96 * rng.random((1, mat.n_sampled)))[0], **options)
+        results.append(fit)
         if progress is not None:
-            progress(len(results), len(starts), results[-1])
+            progress(len(results), len(starts), fit)
     results.sort(key=lambda r: r.cost)
     labels = cluster_optima([r.cost for r in results], cost_rtol=cost_rtol)
-    return MultistartResult(results, labels, time.perf_counter() - t0, problem.n_failed, mat.sampled_names)
+    return MultistartResult(
+        results, labels, time.perf_counter() - t0, problem.n_failed, mat.sampled_names, n_redrawn=n_redrawn
+    )

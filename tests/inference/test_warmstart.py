@@ -59,6 +59,22 @@ def test_multistart_finds_one_cluster_on_a_convex_problem():
     assert ms.best_cluster_spread(problem).max() < 1e-6
 
 
+def test_multistart_redraws_starts_the_fit_cannot_leave():
+    # every forward solve fails where x0 > 0: a start there has no step (nit 0) and is drawn again
+    problem, truth = linear_gaussian_problem(rng=4, fail_above=0.0)
+    mean, _ = linear_gaussian_posterior(problem)
+    stuck = fit_multistart(problem, n_starts=6, rng=1, space="unit", max_redraws=0)
+    assert stuck.n_redrawn == 0
+    assert sum(r.nit == 0 for r in stuck.results) == 3  # the Latin hypercube put 3 of 6 starts above 0
+    ms = fit_multistart(problem, n_starts=6, rng=1, space="unit")
+    assert len(ms.results) == 7 and ms.n_redrawn >= 3
+    random_starts = [r for r in ms.results if r.x0[0] != problem.material.initial[0]]
+    assert all(r.nit > 0 and r.x0[0] < 0 for r in random_starts)
+    np.testing.assert_allclose(ms.best.x, mean, atol=1e-6)
+    again = fit_multistart(problem, n_starts=6, rng=1, space="unit")  # same seed, same starts
+    np.testing.assert_array_equal([r.x0 for r in again.results], [r.x0 for r in ms.results])
+
+
 def test_cluster_labels_and_latin_hypercube():
     labels = cluster_optima([1.0, 1.0000001, 2.0, 2.0001, 5.0])
     assert labels.tolist() == [0, 0, 1, 1, 2]
@@ -79,3 +95,5 @@ def test_warmstart_errors():
         fit_least_squares(problem, x_scale=np.array([1.0, -1.0, 1.0]))
     with pytest.raises(ValueError, match="n_starts: expected an integer >= 0"):
         fit_multistart(problem, n_starts=-1)
+    with pytest.raises(ValueError, match="max_redraws: expected an integer >= 0"):
+        fit_multistart(problem, n_starts=2, max_redraws=-1)
