@@ -4,7 +4,8 @@ Each sub-command lives in its own module ``bayestissue/cli/<name>.py`` exposing 
 which adds its parser and sets ``func(args) -> int``. This is the only layer that prints. Bad input
 (``ValueError``, ``FileNotFoundError``) is reported as one line on stderr and exit status 2, never a traceback;
 the output paths a command declares are checked before it runs. Any other ``OSError``, and a nested run whose
-sampler stalled (``SamplerStalled``), is one line and status 1.
+sampler stalled or met a likelihood plateau it cannot cross (``SamplerStalled``, ``LikelihoodPlateau``), is one line
+and status 1.
 """
 
 from __future__ import annotations
@@ -107,9 +108,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bayestissue {args.command}: error: {msg}", file=sys.stderr)
         return 2
     except RuntimeError as exc:  # a sampler that stopped making progress (the checkpoints are kept)
-        from bayestissue.inference.sampling.ultranest_run import SamplerStalled
+        from bayestissue.inference.sampling.ultranest_run import LikelihoodPlateau, SamplerStalled
 
-        if not isinstance(exc, SamplerStalled):
+        if not isinstance(exc, (SamplerStalled, LikelihoodPlateau)):
             raise
         out = getattr(args, "out", None)
         print(f"bayestissue {args.command}: error: {exc}" + (f"; what it checkpointed is in {out}" if out else ""),

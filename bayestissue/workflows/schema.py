@@ -52,7 +52,12 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "rho_bounds": Key("pair", "[-0.99, 0.99]", "box of a sampled rho (ar1)"),
     },
     "warmstart": {
-        "n_starts": Key("int", "8", "Latin-hypercube least-squares starts besides the paper's initial guess (a start the fit cannot leave is drawn again)", low=0),
+        "n_starts": Key(
+            "int", "8",
+            "Latin-hypercube least-squares starts besides the paper's initial guess (a start the fit cannot leave is "
+            "drawn again)",
+            low=0,
+        ),
         "max_nfev": Key("int", "1000", "evaluation cap of each least-squares fit", low=1),
         "jacobian": Key("choice", '"differences"', "Jacobian of the least squares: batched forward differences, or "
                         "exact (the forward model's sensitivities; not with a specimen parameter)",

@@ -220,3 +220,52 @@ def test_a_stalled_run_raises_and_names_its_calls(monkeypatch, tmp_path):
         sample_nested(problem, options=opts, rng=3, checkpoint=tmp_path)
     ledger = json.loads((tmp_path / "nested_0.cost.json").read_text())
     assert 12_000 < ledger["calls"] <= 200 + 12_000 + 10  # the live points, the limit, one more batch
+
+
+def _plateau_target(level):
+    """A Gaussian peak in the unit cube, log L = 10 - 2000 |u - (0.1, 0.5, 0.5)|^2 (log Z = 10 + 1.5 log(pi / 2000)
+    = 0.316, the tails beyond the cube negligible), whose part u0 > 0.25 (75 % of the cube) is a plateau at
+    log L = ``level``; as :func:`~bayestissue.inference.sampling.nested.nested_target` returns it."""
+
+    def log_l(u):
+        u = np.atleast_2d(u)
+        r2 = (u[:, 0] - 0.1) ** 2 + ((u[:, 1:] - 0.5) ** 2).sum(axis=1)
+        return np.where(u[:, 0] > 0.25, level, 10.0 - 2000.0 * r2)
+
+    return 3, (lambda u: u), log_l, (lambda points, rng=None: points)
+
+
+def test_plateau_above_names_the_lowest_tie_above_the_contour():
+    from bayestissue.inference.sampling.ultranest_run import plateau_above
+
+    ls = np.array([-5.0, -5.0, -3.0, -2.0, -2.0, -2.0, -1.0, -1.0])
+    assert plateau_above(ls, -6.0) == (-5.0, 2)
+    assert plateau_above(ls, -5.0) == (-2.0, 3)  # ties at the contour itself are UltraNest's own plateau handling
+    assert plateau_above(ls, -1.0) is None
+    assert plateau_above(np.array([-3.0, -2.0, -1.0]), -np.inf) is None
+
+
+def test_a_plateau_above_the_contour_is_refused_at_once():
+    """The peak above with its plateau at log L = -100, above most of its tails: measured (population 10, 6 steps),
+    UltraNest stalled on one seed of two (200 live points) and, with the stepping back mended, gave log Z 0.80 to
+    1.71 over 3 runs of 400 live points (truth 0.316; nautilus 0.306, 0.309). The run raises LikelihoodPlateau at
+    its first step, before more than its live points and one batch are evaluated. Control: the plateau at the
+    lowest value (-5000), which UltraNest handles by widening its first live points, runs to the end, its log Z
+    within 4 of its own errors of the truth (measured 0.21 +- 0.12 and 0.58 +- 0.17 with 400 live points)."""
+    from bayestissue.inference.sampling import ultranest_run
+
+    problem, _ = linear_gaussian_problem(n_obs=4, n_params=3, rng=1)  # only its evaluation counters are read
+    opts = NestedOptions(**ULTRA, n_runs=1, n_processes=1, population=10, slice_steps=6)
+    calls = []
+    n_dim, prior, log_l, complete = _plateau_target(-100.0)
+
+    def counted(u):
+        calls.append(len(np.atleast_2d(u)))
+        return log_l(u)
+
+    match = r"nested run 0 \(UltraNest\): 1\d\d of its 200 live points share log L = -100 exactly"
+    with pytest.raises(ultranest_run.LikelihoodPlateau, match=match):
+        ultranest_run.run_ultranest(problem, 0, 1, opts, None, False, None, (n_dim, prior, counted, complete))
+    assert sum(calls) <= 200 + 10
+    out = ultranest_run.run_ultranest(problem, 0, 1, opts, None, False, None, _plateau_target(-5000.0))
+    assert abs(out["log_z"] - 0.316) < 4 * out["reported_log_z_err"], (out["log_z"], out["reported_log_z_err"])

@@ -35,13 +35,27 @@ resumed run replays them without calling the likelihood, and its calls, failed s
 its sessions (:func:`~.checkpoints.earlier_cost`).
 A failed forward solve is :math:`\\log L = -10^{100}` (UltraNest refuses non-finite values), counted.
 
-**A stalled run ends with an error.** UltraNest's population slice sampler can stop producing points while it goes
-on calling the likelihood (UltraNest issues #166 and #177: the same point evaluated over and over; resuming runs a
-little further, then stalls again). Seen here on the tendon relaxation preset with three branches (population 10,
-22 steps): no new point after the first 60 iterations and 1.5 M calls in 12 minutes. A run makes at most about
-``population * slice_steps`` calls per new point when it works (each walker's steps, a few shrinkages each); after
-:data:`STALL_FACTOR` times that many calls without a new point the run raises :class:`SamplerStalled`, naming the
-run, the calls and the iteration reached; what it checkpointed is kept.
+**A likelihood plateau above the contour ends the run with an error.** Where many live points share one
+log-likelihood exactly (a region where the model does not depend on the sampled parameters, e.g. a fibre whose
+recruitment stretch lies beyond the test's largest stretch), UltraNest removes them without replacement (Fowlie,
+Handley & Su 2021, MNRAS 503, 1199, arXiv:2010.13884) and carries on with the few points left, and its population
+slice sampler stalls: a walker parked on the plateau when the contour rises to it is not stepped back (UltraNest
+reverts only points strictly below the contour) and shrinks its slice towards a start that is not inside the
+contour, for ever (UltraNest issues #166 and #177; seen on the tendon relaxation preset, population 10: no new point
+after 60 iterations and 1.5 M calls). Measured on a 3-parameter Gaussian peak (log Z = 0.316 by quadrature) with 75
+% of the unit cube a plateau at log L = -100, above most of the peak's tails: UltraNest (population 10, 6 steps)
+stalled on one seed of two with 200 live points; with the stepping back mended it finished, 3 runs of 400 live
+points giving log Z 0.80 to 1.71 (own errors 0.44 to 0.52), 0.5-1.4 nats high; with the plateau at the lowest value
+(UltraNest's own plateau handling) 0.21 +- 0.12 and 0.58 +- 0.17; nautilus 0.306 and 0.309. So a run whose live
+points tie above the contour raises :class:`LikelihoodPlateau` at the first step that sees them (usually the first),
+naming the value and the count: use nautilus there, or a prior box that excludes the plateau. Ties at the contour
+itself (the initial plateau of failed solves, which UltraNest handles by widening its first live points) are
+allowed.
+
+**A stalled run ends with an error.** Should the step sampler stop producing points for another reason, a run
+that makes about ``population * slice_steps`` calls per new point when it works raises :class:`SamplerStalled`
+after :data:`STALL_FACTOR` times that many calls without a new point, naming the run, the calls and the points
+produced so far; what it checkpointed is kept.
 """
 
 from __future__ import annotations
@@ -54,7 +68,7 @@ from scipy.special import logsumexp
 
 from bayestissue.inference.sampling.checkpoints import cost_meter, earlier_cost, write_cost
 
-__all__ = ["SamplerStalled", "STALL_FACTOR", "run_ultranest", "slice_steps", "stall_limit"]
+__all__ = ["LikelihoodPlateau", "SamplerStalled", "STALL_FACTOR", "run_ultranest", "slice_steps", "stall_limit"]
 
 #: stand-in for log L = -inf (UltraNest's own choice for non-finite values)
 _FLOOR = -1e100
@@ -70,6 +84,19 @@ STALL_FACTOR = 200
 
 class SamplerStalled(RuntimeError):
     """Raised by a run of the UltraNest engine whose step sampler stopped producing points (module docstring)."""
+
+
+class LikelihoodPlateau(RuntimeError):
+    """Raised by a run of the UltraNest engine whose live points share one log-likelihood above the contour
+    (module docstring)."""
+
+
+def plateau_above(log_l: np.ndarray, contour: float) -> tuple[float, int] | None:
+    """The lowest log-likelihood that at least two of the live points ``log_l`` share exactly above ``contour``,
+    and how many share it; None when no two tie there."""
+    values, counts = np.unique(log_l[log_l > contour], return_counts=True)
+    tied = np.flatnonzero(counts > 1)
+    return None if tied.size == 0 else (float(values[tied[0]]), int(counts[tied[0]]))
 
 
 #: :data:`~.nested.SLICE_DIRECTIONS` -> UltraNest's direction generator (``ultranest.stepfuncs``)
@@ -88,20 +115,26 @@ def stall_limit(options, n_dim: int) -> int:
     return STALL_FACTOR * options.population * slice_steps(options, n_dim)
 
 
-def _counting(step_class):
-    """``step_class`` (a population step sampler) counting the points it hands to the integrator (``produced``:
-    a step returns ``logl`` None while no walker has finished)."""
+def _watched(step_class):
+    """``step_class`` (a population step sampler) that refuses a plateau above the contour (:func:`plateau_above`,
+    as ``plateau``: value, count, live points, contour) and counts the points it hands to the integrator
+    (``produced``: a step returns ``logl`` None while no walker has finished)."""
 
-    class Counting(step_class):
+    class Watched(step_class):
         produced = 0
+        plateau = None
 
-        def __next__(self, *args, **kwargs):
-            out = super().__next__(*args, **kwargs)
+        def __next__(self, region, Lmin, us, Ls, *args, **kwargs):
+            tie = plateau_above(np.asarray(Ls), Lmin)
+            if tie is not None:
+                self.plateau = (*tie, len(Ls), float(Lmin))
+                raise LikelihoodPlateau(self.plateau)
+            out = super().__next__(region, Lmin, us, Ls, *args, **kwargs)
             if out[2] is not None:
                 self.produced += 1
             return out
 
-    return Counting
+    return Watched
 
 
 def _own_log() -> None:
@@ -133,7 +166,7 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
     cost = cost_meter(before, problem)
     state = {"next": options.report_every, "produced": 0, "calls_at": before.calls}
     limit = stall_limit(options, n_dim)
-    step = _counting(popstepsampler.PopulationSliceSampler)(
+    step = _watched(popstepsampler.PopulationSliceSampler)(
         popsize=options.population,
         nsteps=slice_steps(options, n_dim),
         generate_direction=getattr(popstepsampler, _DIRECTIONS[options.directions]),
@@ -188,6 +221,15 @@ def run_ultranest(problem, k, seed, options, path, resume, progress, target):
             show_status=False,
             viz_callback=False,
         )
+    except LikelihoodPlateau:
+        write_cost(path, cost())
+        value, count, n_live, contour = step.plateau
+        raise LikelihoodPlateau(
+            f"nested run {k} (UltraNest): {count} of its {n_live} live points share log L = {value:.6g} exactly, "
+            f"above the contour {contour:.6g}: the likelihood has a plateau (parameters on which the model does not "
+            "depend there), where UltraNest's evidence is biased and its slice sampler stalls; use [nested] "
+            'sampler = "nautilus" for this problem, or a prior box that leaves the plateau out'
+        ) from None
     finally:
         np.random.set_state(saved)  # noqa: NPY002
     spent = cost()
