@@ -201,14 +201,10 @@ def test_fit_reports_a_stalled_ultranest_run_in_one_line(tmp_path, capsys, monke
     the way out, no traceback; the run's ledger is kept."""
     from ultranest import popstepsampler
 
-    original = popstepsampler.PopulationSliceSampler
+    from tests.inference.inference_helpers import stuck_step_sampler
 
-    class Stuck(original):
-        def __next__(self, region, Lmin, us, Ls, transform, loglike, **kwargs):
-            loglike(transform(np.repeat(us[:1], self.popsize, axis=0)))
-            return None, None, None, self.popsize
-
-    monkeypatch.setattr(popstepsampler, "PopulationSliceSampler", Stuck)
+    stuck = stuck_step_sampler(popstepsampler.PopulationSliceSampler)
+    monkeypatch.setattr(popstepsampler, "PopulationSliceSampler", stuck)
     cfg = _config(
         tmp_path,
         '[parameters]\nsampled = ["mu", "kappa"]\n[warmstart]\nn_starts = 0\n[sampler]\nseed = 5\n'
@@ -223,3 +219,24 @@ def test_fit_reports_a_stalled_ultranest_run_in_one_line(tmp_path, capsys, monke
     assert "nested run 0 (UltraNest) stalled: no new point in 80" in err  # limit 200 x 2 x 2 = 800 calls
     assert 'sampler = "nautilus"' in err and str(out) in err
     assert (out / "checkpoints" / "nested_0.cost.json").is_file()
+
+
+def test_fit_refuses_ultranest_on_a_likelihood_plateau_in_one_line(tmp_path, capsys):
+    """The synthetic tendon preset (``data/synthetic/tendon_relaxation.toml``) has a plateau: where the recruitment
+    stretch lies beyond the test's largest stretch 1.05 (75 % of its box [1, 1.2]) no fibre carries load and every
+    point has log L = -1370.71. UltraNest stalled there (no new point after 60 iterations in 1.5 M calls); ``fit``
+    now stops at the first step with status 1 and one line naming the plateau's value and the way out."""
+    cfg = _config(
+        tmp_path,
+        "[parameters]\nfixed = { mu = 10.0, kappa = 10.0, disp1 = 0.02 }\n[warmstart]\nn_starts = 0\n"
+        '[sampler]\nseed = 20261127\nengine = "nested"\n'
+        '[nested]\nsampler = "ultranest"\nn_live = 100\nn_runs = 1\nn_processes = 1\npopulation = 10\n',
+    )
+    out = tmp_path / "out"
+    argv = ["fit", str(DATA / "synthetic" / "tendon_relaxation.toml"), "--config", cfg, "--out", str(out)]
+    code = main([*argv, "--no-figures", "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert "nested run 0 (UltraNest): " in err and "live points share log L = -1370.71 exactly" in err
+    assert 'sampler = "nautilus"' in err and str(out) in err

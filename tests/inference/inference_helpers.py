@@ -96,3 +96,15 @@ def exchangeable_problem(exchangeable=True):
     term = ExperimentTerm("sumprod", np.arange(20.0), y, _SumProduct(), GaussianNoise(sd=0.05))
     groups = [["a"], ["b"]] if exchangeable else None
     return CalibrationProblem([term], ParameterSet(specs), exchangeable=groups)
+
+
+def stuck_step_sampler(sampler_class):
+    """UltraNest's population slice sampler ``sampler_class`` in the state of its issues #166 / #177: every step
+    evaluates the same point again and no walker ever finishes (``logl`` None)."""
+
+    class Stuck(sampler_class):
+        def __next__(self, region, Lmin, us, Ls, transform, loglike, **kwargs):
+            loglike(transform(np.repeat(us[:1], self.popsize, axis=0)))
+            return None, None, None, self.popsize
+
+    return Stuck

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from inference_helpers import stuck_step_sampler
 from linear_model import linear_gaussian_posterior, linear_gaussian_problem
 
 from bayestissue._validation import ValidationError
@@ -189,18 +190,6 @@ def test_ultranest_option_errors_name_the_field(kw, field):
         NestedOptions(**kw)
 
 
-def _stuck(sampler_class):
-    """UltraNest's population slice sampler in the state of its issues #166 / #177: every step evaluates the same
-    point again and no walker ever finishes (``logl`` None)."""
-
-    class Stuck(sampler_class):
-        def __next__(self, region, Lmin, us, Ls, transform, loglike, **kwargs):
-            loglike(transform(np.repeat(us[:1], self.popsize, axis=0)))
-            return None, None, None, self.popsize
-
-    return Stuck
-
-
 def test_a_stalled_run_raises_and_names_its_calls(monkeypatch, tmp_path):
     """A step sampler that keeps calling the likelihood without producing a point: the run raises SamplerStalled
     once STALL_FACTOR x population x slice_steps calls have passed without a new point (here 200 x 10 x 6 = 12 000
@@ -210,7 +199,8 @@ def test_a_stalled_run_raises_and_names_its_calls(monkeypatch, tmp_path):
 
     from bayestissue.inference.sampling import ultranest_run
 
-    monkeypatch.setattr(popstepsampler, "PopulationSliceSampler", _stuck(popstepsampler.PopulationSliceSampler))
+    stuck = stuck_step_sampler(popstepsampler.PopulationSliceSampler)
+    monkeypatch.setattr(popstepsampler, "PopulationSliceSampler", stuck)
     problem, _ = linear_gaussian_problem(n_obs=40, n_params=3, sd=0.1, box=20.0, rng=1)
     opts = NestedOptions(**ULTRA, n_runs=1, n_processes=1, population=10, slice_steps=6)
     assert ultranest_run.stall_limit(opts, 3) == 12_000
