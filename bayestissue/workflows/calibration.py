@@ -145,6 +145,8 @@ def run_calibration(
         progress=lambda k, n, r: say(f"multi-start {k}/{n}: cost {r.cost:.5g}, {r.nit} iterations, {r.time_s:.1f} s"),
     )
     times["multistart"] = time.perf_counter() - t0
+    if multi.n_redrawn:
+        say(f"multi-start: {multi.n_redrawn} random start(s) redrawn (the fit could not move from them)")
     best = min([paper_fit, multi.best], key=lambda r: r.cost)
     refs = {e.name: reference_values(e) for e in experiments}
     outcome = CalibrationOutcome(problem, config, paper_fit, multi, best, references=refs, times_s=times)

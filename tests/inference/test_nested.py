@@ -163,6 +163,17 @@ def test_same_seed_same_result():
     assert a.log_z != c.log_z
 
 
+def test_a_looser_network_tolerance_changes_the_run_not_the_evidence(linear_run):
+    """``network_tol`` reaches nautilus's networks (the same seed gives another run than at 0) and a run at 1e-2,
+    a hundred times the tendon preset's 1e-4, still has the closed-form evidence within 4 of its standard errors
+    (the networks only shape the bounds whose volumes nautilus measures)."""
+    problem, _ = linear_run
+    loose = sample_nested(problem, options=NestedOptions(**SMALL, n_runs=2, network_tol=1e-2), rng=3)
+    tight = sample_nested(problem, options=NestedOptions(**SMALL, n_runs=2), rng=3)
+    assert loose.log_z != tight.log_z
+    assert abs(loose.log_z - _closed_form_log_z(problem, 20.0)) < 4 * loose.log_z_err
+
+
 def test_capped_run_is_not_converged_and_resumes_from_its_checkpoint(tmp_path):
     """A run stopped by ``max_evaluations`` says so; resuming from its nautilus file goes on from the stored
     evaluations (not from zero) and finishes. The noise sd is sampled (integrated out by the runs), so completing
@@ -226,6 +237,9 @@ def test_inference_data_carries_draws_weights_and_evidence(linear_run):
         ({"max_evaluations": 0}, "max_evaluations"),
         ({"n_eff": 1.5}, "n_eff"),
         ({"discard_exploration": "yes"}, "discard_exploration"),
+        ({"network_tol": 0.5}, "network_tol"),
+        ({"network_tol": -1e-4}, "network_tol"),
+        ({"network_tol": True}, "network_tol"),
     ],
 )
 def test_nested_option_errors_name_the_field(kw, field):

@@ -106,6 +106,7 @@ def test_a_config_with_every_kind_passes():
         ("nested", "n_runs", 1001, "an integer >= 1 and <= 1000"),
         ("nested", "n_networks", 10**6, "an integer >= 1 and <= 64"),
         ("nested", "discard_exploration", "yes", "true or false"),
+        ("nested", "network_tol", 0.5, "a number >= 0 and <= 0.1"),
         ("output", "max_draws", 0, "an integer >= 1"),
     ],
 )
