@@ -118,7 +118,7 @@ class NestedOptions:
     network_tol : a network's training stops when its loss has improved by less than this for 10 epochs in a row
         (scikit-learn's ``MLPRegressor`` ``tol``; 0, nautilus's default, trains until the loss stops improving at
         all). The networks only shape the bound a shell is sampled from, whose volume nautilus measures by sampling,
-        so a looser tolerance costs efficiency, not correctness. On the tendon preset's two-branch relaxation (9
+        so a looser tolerance costs efficiency, not correctness. On the tendon preset's two-branch relaxation (8 sampled
         parameters, 500 live points) two runs at 1e-4 gave log Z -537.64 and -537.54 (four at 0: -537.64 to
         -537.44); one run at each tolerance side by side made 130 000 (1e-4) and 85 000 (0) calls in the same
         630 s (examples/README.md).
