@@ -96,6 +96,8 @@ def run(args) -> int:
         print("note: no --config: sampling the paper's 11-parameter model, which does not converge on a creep or a "
               "ramp (README, Calibration); examples/creep_T1.toml and examples/ramp_T2.toml tie the mirror families "
               "and converge")  # fmt: skip
+    for ridge in _branch_ridges(experiments, config):
+        print(ridge.note())
     data_paths = [Path(p) for e in experiments for p in (e.source, e.data_file) if p is not None]
     if reps is not None:
         data_paths.append(Path(args.replicates))
@@ -140,6 +142,16 @@ def run(args) -> int:
         _report(outcome, config, names, out, args.no_figures)
     print(f"wrote {out}/ in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+def _branch_ridges(experiments, config) -> list:
+    """The Prony branches of the first experiment's tissue whose sampled parameters make flat directions
+    (:mod:`~bayestissue.analyses.branch_ridges`; the experiments share one tissue)."""
+    from bayestissue.analyses.branch_ridges import branch_ridges
+    from bayestissue.workflows.problem import build_problem
+
+    sampled = build_problem(experiments, config).material.sampled_names
+    return branch_ridges(experiments[0].tissue, sampled)
 
 
 def _replicates(args, config, experiments) -> dict:

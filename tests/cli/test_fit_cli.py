@@ -240,3 +240,19 @@ def test_fit_refuses_ultranest_on_a_likelihood_plateau_in_one_line(tmp_path, cap
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert "nested run 0 (UltraNest): " in err and "live points share log L = -1370.71 exactly" in err
     assert 'sampler = "nautilus"' in err and str(out) in err
+
+
+@pytest.mark.parametrize("fixed", ["", ", gamma1_2 = 0.75"])
+def test_fit_names_the_flat_direction_of_a_free_second_branch(tmp_path, capsys, fixed):
+    """Two Prony branches with rel1_2 and gamma1_2 both sampled: ``fit`` says before any work that they make a flat
+    direction and how to fix it (bayestissue.analyses.branch_ridges); with gamma1_2 fixed it says nothing."""
+    cfg = _config(tmp_path, f"[parameters]\nfixed = {{ mu = 10.0, kappa = 10.0, disp1 = 0.02{fixed} }}\n"
+                            "[warmstart]\nn_starts = 0\n")  # fmt: skip
+    argv = ["fit", str(DATA / "synthetic" / "tendon_relaxation.toml"), "--config", cfg, "--out", str(tmp_path / "o")]
+    assert main([*argv, "--no-sample", "--no-figures", "--no-progress"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    notes = [s for s in out if s.startswith("note: rel1_2 and gamma1_2 are both sampled: 1 flat direction")]
+    if fixed:
+        assert notes == []
+    else:
+        assert len(notes) == 1 and "fixed = { gamma1_2 = 0.75 }" in notes[0] and out.index(notes[0]) < 2
