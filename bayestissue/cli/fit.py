@@ -247,10 +247,9 @@ def _resume_line(run_dir, engine: str) -> str:
 def _report(outcome, config, names, out, no_figures) -> None:
     from bayestissue.inference.summary import table_markdown
 
-    ms = outcome.multistart
-    redrawn = f" ({ms.n_redrawn} random starts redrawn: the fit could not move from them)" if ms.n_redrawn else ""
+    ms = outcome.multistart  # the redrawn starts were said as the warm start ran (workflows.calibration)
     print(
-        f"multi-start: {len(ms.results)} starts{redrawn}, best cost {ms.best.cost:.5g}, "
+        f"multi-start: {len(ms.results)} starts, best cost {ms.best.cost:.5g}, "
         f"{int(ms.labels.max()) + 1} cost clusters, {ms.time_s:.1f} s; the table's least-squares column is the best "
         f"fit (cost {outcome.best.cost:.5g}, active bounds: {', '.join(outcome.best.active_names()) or 'none'})"
     )
