@@ -26,6 +26,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from bayestissue.cli import run_lines  # noqa: E402
 from bayestissue.inference import NestedOptions, sample_nested  # noqa: E402
 from bayestissue.inference.engine_check import compare_quantiles  # noqa: E402
 from bayestissue.inference.evidence import assess_nested  # noqa: E402
@@ -68,7 +69,7 @@ def main(argv=None) -> None:
     out = {}
     for name, opts in samplers.items():
         t0 = time.perf_counter()
-        s = sample_nested(problem, options=opts, rng=args.seed, progress=_every(60.0, name))
+        s = sample_nested(problem, options=opts, rng=args.seed, progress=run_lines(f"  [{name}]"))
         wall = time.perf_counter() - t0
         rep = assess_nested(s)
         out[name] = (s, rep)
@@ -101,19 +102,6 @@ def main(argv=None) -> None:
               f"({('5 %', 'median', '95 %')[j]}) | {check.z[i, j]:.1f} | "
               f"{'DIFFERS' if check.differs[i].any() else ''} |")  # fmt: skip
     print(f"the samplers {'agree' if check.agree else 'DISAGREE'} on the quantiles")
-
-
-def _every(seconds: float, name: str):
-    """A progress callback that prints where the runs are at most every ``seconds`` (a killed benchmark still says
-    how far each run got)."""
-    last = [time.perf_counter()]
-
-    def report(run, n_evaluations, n_eff, explored, log_z):
-        if time.perf_counter() - last[0] >= seconds:
-            last[0] = time.perf_counter()
-            print(f"  [{name}] run {run}: {n_evaluations} calls, log Z so far {log_z:.3f}", flush=True)
-
-    return report
 
 
 if __name__ == "__main__":

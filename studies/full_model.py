@@ -44,6 +44,7 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
     rerun_command,
 )
 from bayestissue.analyses.records import FILES  # noqa: E402
+from bayestissue.cli import run_lines  # noqa: E402
 from bayestissue.inference import NestedOptions, fit_least_squares, fit_multistart, sample_nested  # noqa: E402
 from bayestissue.inference.evidence import assess_nested  # noqa: E402
 from bayestissue.inference.sampling.nested import nested_target  # noqa: E402
@@ -58,18 +59,6 @@ from bayestissue.workflows.problem import build_problem  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 #: Random least-squares starts besides the paper's, for the peak check's reference (``fit``'s default is 8).
 LS_STARTS = {"quick": 0, "full": 8}
-
-
-def _progress(name: str, seconds: float = 60.0):
-    """Print where the runs are at most every ``seconds`` (a killed stage still says how far each run got)."""
-    last = [time.perf_counter()]
-
-    def report(run, n_evaluations, n_eff, explored, log_z):
-        if time.perf_counter() - last[0] >= seconds:
-            last[0] = time.perf_counter()
-            print(f"[full model] {name} run {run}: {n_evaluations} calls", flush=True)
-
-    return report
 
 
 def _problem(data: str, model: str):
@@ -124,7 +113,7 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, 
         # a killed --full run resumes its finished points; a capped --quick run starts afresh (a resumed capped run
         # goes on past its cap and would not repeat itself)
         sample = sample_nested(problem, options=opts, checkpoint=cache, resume=mode == "full",
-                               rng=seed + k, progress=_progress(f"{data} {model}"))  # fmt: skip
+                               rng=seed + k, progress=run_lines(f"[full model] {data} {model}"))  # fmt: skip
         wall = time.perf_counter() - t0
         rep = assess_nested(sample, reference_log_l=_peak(problem, opts, seed + k, LS_STARTS[mode]))
         models[model] = model_evidence(model, sample, rep, opts, wall, key)

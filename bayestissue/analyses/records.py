@@ -13,6 +13,7 @@ measured data       :class:`MeasuredRecord`            the real-data cases: fits
 laws                :class:`LawChoiceRecord`           each law on each material: transfer, joint evidence
 specimens           :class:`HierarchyRecord`           the hierarchical model's cases (analyses.hierarchy_record)
 full model          :class:`ModelChoiceRecord`         mirror vs 11-parameter model by nested runs (model_choice)
+branches            :class:`BranchCountRecord`         the tendon's Prony branch count by nested runs (branch_count)
 ==================  =================================  ===========================================================
 
 Records hold measurements, not verdicts: the report applies the rules of :mod:`bayestissue.analyses.verdicts` to
@@ -479,6 +480,7 @@ class TissueTermsRecord:
     runs: dict[str, dict[str, list[float]]]
 
 
+from bayestissue.analyses.branch_count import BranchCountRecord  # noqa: E402
 from bayestissue.analyses.hierarchy_record import HierarchyCase, HierarchyRecord  # noqa: E402
 from bayestissue.analyses.model_choice import ModelChoiceRecord  # noqa: E402
 
@@ -493,4 +495,5 @@ FILES = {
     TissueTermsRecord: "tissue_terms_record.json",
     HierarchyRecord: "hierarchy_record.json",
     ModelChoiceRecord: "model_choice_record.json",
+    BranchCountRecord: "branch_count_record.json",
 }

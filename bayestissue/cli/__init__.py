@@ -14,10 +14,11 @@ import argparse
 import importlib
 import logging
 import sys
+import time
 
 from bayestissue import __version__
 
-__all__ = ["main", "build_parser", "plain", "progress_bar", "seed"]
+__all__ = ["main", "build_parser", "plain", "progress_bar", "run_lines", "seed"]
 
 #: Sub-command modules, in the order ``--help`` lists them.
 _COMMANDS = ("simulate", "fit", "hierarchy", "importer", "stereology", "micrographs")
@@ -51,6 +52,20 @@ def progress_bar(args, **kwargs):
     from tqdm import tqdm
 
     return tqdm(file=sys.stderr, disable=bool(getattr(args, "quiet", False)), **kwargs)
+
+
+def run_lines(label: str, seconds: float = 60.0):
+    """A nested engine's ``progress`` callback for a long study stage or benchmark: prints ``{label} run {run}:
+    {calls} calls, log Z so far {log_z}`` at most every ``seconds`` (a killed stage's log still says how far each run
+    got)."""
+    last = [time.perf_counter()]
+
+    def report(run, n_evaluations, n_eff, explored, log_z):
+        if time.perf_counter() - last[0] >= seconds:
+            last[0] = time.perf_counter()
+            print(f"{label} run {run}: {n_evaluations} calls, log Z so far {log_z:.3f}", flush=True)
+
+    return report
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -14,6 +14,7 @@ import jinja2
 from bayestissue.analyses import verdicts
 from bayestissue.analyses.records import MeasuredRecord
 from bayestissue.inference.fit_check import MAX_LAG1, MAX_NOISE_RATIO
+from bayestissue.report.branch_count import branch_count_context
 from bayestissue.report.causes import (
     controls_context,
     difference_context,
@@ -95,6 +96,7 @@ def report_context(records: StudyRecords) -> dict:
         "terms": _terms(records.tissue_terms),
         "population": population_context(records.hierarchy),
         "model_choice": model_choice_context(records.model_choice, I, records.model_choice_now),
+        "branches": branch_count_context(records.branch_count, records.branch_count_now),
     }
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from bayestissue.analyses.branch_count import BranchCountRecord, count_hash
 from bayestissue.analyses.identifiability import LABELS
 from bayestissue.analyses.model_choice import ModelChoiceRecord, current_hashes
 from bayestissue.analyses.records import (
@@ -41,13 +42,17 @@ class StudyRecords:
     model_choice: ModelChoiceRecord | None = None
     #: data set -> model -> the current code's and data's hash for the model-choice record's mode (None: not checked)
     model_choice_now: dict[str, dict[str, str]] | None = None
+    branch_count: BranchCountRecord | None = None
+    #: branch count -> the current code's, data's and configuration's hash (None: not checked)
+    branch_count_now: dict[int, str] | None = None
 
 
 def read_study_records(folder) -> StudyRecords:
     """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls,
-    measured-data, laws, tissue-terms, hierarchy and model-choice records are optional (their stages may not have
-    run), the other two are not. The model-choice record is checked against the current code
-    (:func:`~bayestissue.analyses.model_choice.current_hashes`)."""
+    measured-data, laws, tissue-terms, hierarchy, model-choice and branch-count records are optional (their stages
+    may not have run), the other two are not. The model-choice and branch-count records are checked against the
+    current code (:func:`~bayestissue.analyses.model_choice.current_hashes`,
+    :func:`~bayestissue.analyses.branch_count.count_hash`) where the source checkout's data are at hand."""
     folder = Path(folder)
 
     def optional(cls):
@@ -56,6 +61,10 @@ def read_study_records(folder) -> StudyRecords:
 
     choice = optional(ModelChoiceRecord)
     now = current_hashes(choice, DATA_DIR) if choice is not None and DATA_DIR.is_dir() else None
+    branches = optional(BranchCountRecord)
+    root = DATA_DIR.parent
+    checkable = branches is not None and DATA_DIR.is_dir() and (root / "examples").is_dir()
+    branches_now = {n: count_hash(branches.mode, root, n) for n in branches.counts} if checkable else None
     return StudyRecords(
         identifiability=read_record(folder / FILES[IdentifiabilityRecord], IdentifiabilityRecord),
         discrepancy=read_record(folder / FILES[DiscrepancyRecord], DiscrepancyRecord),
@@ -67,4 +76,6 @@ def read_study_records(folder) -> StudyRecords:
         hierarchy=optional(HierarchyRecord),
         model_choice=choice,
         model_choice_now=now,
+        branch_count=branches,
+        branch_count_now=branches_now,
     )

@@ -208,3 +208,24 @@ def test_evidence_strength_within_its_error():
     assert V.evidence_strength(10.0 + 1e-9, 5.0) == "very strong"
     assert V.evidence_strength(10.0 - 1e-9, 5.0) == "within error"
     assert V.evidence_strength(float("nan"), 0.1) == "within error"
+
+
+def test_a_model_whose_runs_disagree_is_rejected_only_below_its_highest_run_plus_two_of_their_sds():
+    """Four scattered runs (sd 0.2 nats, highest -10): rejected where the favoured model is 1 nat (positive) above
+    -10 + 2 x 0.2, not 1e-6 nat less; never by a favoured model whose own runs disagree, never with a run capped or
+    short of the peak, never from fewer runs than the minimum. The tendon's three-branch runs (docs/verification.md)
+    are rejected by two branches: bound -537.402 + 2 x 0.170, 1.43 nats below -535.633."""
+    runs = -10.0 + 0.2 * np.array([0.0, -1.0, -2.0, -1.0]) / np.std([0.0, -1.0, -2.0, -1.0], ddof=1)
+    runs += -10.0 - runs.max()
+    bound = -10.0 + V.SCATTER_MARGIN * 0.2
+    ok = [True] * 4
+    assert V.evidence_rejects_scattered((bound + V.BAYES_POSITIVE, 0.01), True, runs, ok)
+    assert not V.evidence_rejects_scattered((bound + V.BAYES_POSITIVE - 1e-6, 0.01), True, runs, ok)
+    assert not V.evidence_rejects_scattered((bound + 3.0, 0.01), False, runs, ok)
+    assert not V.evidence_rejects_scattered((bound + 3.0, 0.01), True, runs, [True, True, False, True])
+    assert not V.evidence_rejects_scattered((bound + 3.0, 0.01), True, runs[:3], ok[:3])
+    assert not V.evidence_rejects_scattered((bound + 3.0, 2.0), True, runs, ok)  # within the favoured model's error
+    tendon = [-537.7866732089002, -537.4017466999592, -537.70419378969, -537.5553267919369]
+    assert V.evidence_rejects_scattered((-535.6329357295343, 0.013935758778963697), True, tendon, ok)
+    assert V.evidence_rejects_scattered((-537.402 + 0.34 + 1.01, 0.01), True, tendon, ok)
+    assert not V.evidence_rejects_scattered((-537.402 + 0.34 + 0.99, 0.01), True, tendon, ok)

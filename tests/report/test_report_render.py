@@ -45,8 +45,9 @@ def test_the_report_opens_with_the_answers(records):
     # 6 100 with the specimens section (issue 35; its tables of typical and new specimens stay in their summary),
     # 6 260 -> 6 450 with the rate study's further truths (a table of 8 rows), 7 235 with the model choice (issue 36:
     # per test a table of the 11 parameters beside Table 1, 2 rows of runs' evidence and a line of verdict), 7 997
-    # with the joint data set (3 rows of runs, the stiffness scale's factor) and the fixture's box-width table (4 rows)
-    assert sum(len(line.split()) for line in lines) < 8200
+    # with the joint data set (3 rows of runs, the stiffness scale's factor) and the fixture's box-width table (4 rows),
+    # 8 507 with the branch count (issue 32: an answers row of 46 words, a section of 266 with a table of 3 rows)
+    assert sum(len(line.split()) for line in lines) < 8600
 
 
 def test_verdicts_follow_the_records(records):
@@ -349,3 +350,32 @@ def test_a_model_resumed_over_sessions_says_so_instead_of_one_sessions_times(rec
     other, o = next((k, v) for k, v in case.models.items() if k != model)
     assert f"{data} {other} {2 * float(np.mean(o.time_s)):.0f} s on 1 worker" in line
     assert "nan" not in line
+
+
+def test_the_branch_count_section_states_the_pick_the_rule_and_stale_runs(records):
+    """Section 9 and its answers row follow the branch-count record: the pick and the bound on the scattered
+    three-branch runs; no pick once the two-branch runs disagree too; current runs lose the stale line; no section
+    without the record."""
+    text = render_report(records)
+    row = next(x for x in text.splitlines() if x.startswith("| How many relaxation times"))
+    assert (
+        "| **2 branches** |" in row
+        and "ln B 2 over 3 1.98 +- 0.09 (positive; 3-branch runs disagree, bound 1.43)" in row
+    )
+    section = text.split("## 9. Relaxation branches by the evidence")[1]
+    assert "**The evidence picks 2 branches** (the generating count)" in section
+    assert "even their highest run plus two of their sds lies 1.43 nats below 2 branches" in section
+    assert "| 1 | 6 | -731.03 +- 0.01 | yes (p = 0.67) | **MISFIT** | 3.49, 0.90 | yes |" in section
+    assert "- **Stale**: the runs of 1, 2, 3 branch(es)" in section  # the fixture's hashes are no code's
+    B = records.branch_count
+    two = B.fits["2"]
+    scattered = dataclasses.replace(B, fits={**B.fits, "2": dataclasses.replace(two, evidence=dataclasses.replace(
+        two.evidence, log_z_p=0.001))})  # fmt: skip
+    now = {n: B.fits[str(n)].evidence.numbers_hash for n in B.counts}
+    text = render_report(dataclasses.replace(records, branch_count=scattered, branch_count_now=now))
+    row = next(x for x in text.splitlines() if x.startswith("| How many relaxation times"))
+    assert "| not decided |" in row
+    assert "**The evidence does not decide** (largest log Z: 2 branches)" in text
+    assert "does not decide (the 2-branch runs disagree)" in text and "**Stale**" not in text
+    text = render_report(dataclasses.replace(records, branch_count=None))
+    assert "How many relaxation times" not in text and "## 9." not in text
