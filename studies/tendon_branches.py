@@ -45,6 +45,8 @@ from bayestissue.io.records import read_record, write_record  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.branch_count import plot_branch_count  # noqa: E402
 from bayestissue.workflows import load_config, run_calibration  # noqa: E402
+from bayestissue.workflows.problem import reference_values  # noqa: E402
+from bayestissue.workflows.tissue_terms import tissue_terms  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Every THIN-th sample of the data goes into the record (the figure's grid; the 161 samples are few).
@@ -74,10 +76,12 @@ def _fit(mode: str, n: int) -> BranchFit:
     band = np.quantile(noisy[:, ::THIN], [0.05, 0.95], axis=0)
     print(f"[branches] {n} branch(es): log Z {out.sample.log_z:.3f} +- {out.sample.log_z_err:.3f}, {wall:.0f} s; "
           f"{out.report.verdict()}; {out.idata.posterior.attrs['fit_check']}", flush=True)  # fmt: skip
+    terms = {r["quantity"]: (r["lower"], r["median"], r["upper"]) for r in out.tissue_terms.rows()}
     return BranchFit(branches=n, evidence=evidence, noise_ratio=float(check["noise_ratio"]), lag1=float(check["lag1"]),
                      fits=not check["misfit"], fit_check=str(out.idata.posterior.attrs["fit_check"]),
                      median=mid.tolist(), lower=lo.tolist(), upper=hi.tolist(),
-                     band=(band[0].tolist(), band[1].tolist()))  # fmt: skip
+                     band=(band[0].tolist(), band[1].tolist()),
+                     terms=terms, units={q: unit for q, (unit, _) in out.tissue_terms.values.items()})  # fmt: skip
 
 
 def _summary(rec: BranchCountRecord) -> str:
@@ -99,6 +103,17 @@ def _summary(rec: BranchCountRecord) -> str:
         lines.append(f"| {n} | {len(e.names)} | {runs} | {e.merged[0]:.3f} +- {e.merged[1]:.3f} | "
                      f"{'yes' if e.runs_agree else 'no'} (p = {e.log_z_p:.2g}) | {f.fit_check} | {e.verdict} | "
                      f"{e.numbers_hash} |")  # fmt: skip
+    lines += ["", "Tissue terms (median [90 %]; `workflows/tissue_terms.py`) against the generating values:", "",
+              "| quantity | unit | generating | " + " | ".join(f"{n} branch(es)" for n in rec.counts) + " |",
+              "|---|---|---|" + "---|" * len(rec.counts)]  # fmt: skip
+    quantities = list(dict.fromkeys(q for n in rec.counts for q in rec.fits[str(n)].terms))
+    for q in quantities:
+        truth = rec.truth_terms.get(q)
+        cells = [f"{t[1]:.4g} [{t[0]:.4g}, {t[2]:.4g}]" if (t := rec.fits[str(n)].terms.get(q)) else "-"
+                 for n in rec.counts]  # fmt: skip
+        unit = next(rec.fits[str(n)].units[q] for n in rec.counts if q in rec.fits[str(n)].units)
+        lines.append(f"| {q} | {unit} | {'-' if truth is None else f'{truth:.4g}'} | "
+                     + " | ".join(cells) + " |")  # fmt: skip
     for n in rec.counts:
         e = rec.fits[str(n)].evidence
         lines += ["", f"## {n} branch(es): {sum(e.calls)} likelihood calls, {e.wall_text}", "",
@@ -153,6 +168,7 @@ def main(argv=None) -> int:
     old = read_record(path, BranchCountRecord) if path.is_file() else None
     fits = dict(old.fits) if old is not None and old.mode == mode else {}
     experiment = load_experiment(ROOT / "data" / "synthetic" / DATA[TRUE_BRANCHES])
+    truth = tissue_terms(experiment, reference_values(experiment)["generating"][None, :])
     for n in sorted(chosen | {int(k) for k in fits}):
         kept = fits.get(str(n))
         current = kept is not None and kept.evidence.numbers_hash == count_hash(mode, ROOT, n)
@@ -164,7 +180,8 @@ def main(argv=None) -> int:
         rec = BranchCountRecord(mode=mode, true_branches=TRUE_BRANCHES, thin=THIN,
                                 time_s=experiment.time_s[::THIN].tolist(),
                                 force_mN=np.asarray(experiment.observed, dtype=float)[::THIN].tolist(),
-                                fits={k: fits[k] for k in sorted(fits)})  # fmt: skip
+                                fits={k: fits[k] for k in sorted(fits)},
+                                truth_terms={q: float(v[0]) for q, (_, v) in truth.values.items()})  # fmt: skip
         write_record(path, rec)  # a killed stage keeps every count it finished
     rec = read_record(path, BranchCountRecord)
     _write(rec, args.out)

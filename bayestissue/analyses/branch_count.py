@@ -89,7 +89,9 @@ class BranchFit:
     noise sd over the data's own estimate, ``lag1`` the residuals' lag-1 autocorrelation, ``fits`` the rule of
     :func:`~bayestissue.inference.fit_check.fit_check`) and its posterior predictive on the record's thinned time
     grid: ``median``, ``lower``, ``upper`` the model curve's 50 / 5 / 95 % and ``band`` the 5 / 95 % of the model
-    plus noise (mN)."""
+    plus noise (mN). ``terms``: the tissue terms of its posterior (:mod:`~bayestissue.workflows.tissue_terms`:
+    moduli, relaxation at full hold, each branch's relaxation time), quantity -> (5 %, median, 95 %), and their
+    ``units``."""
 
     branches: int
     evidence: ModelEvidence
@@ -101,21 +103,25 @@ class BranchFit:
     lower: list[float]
     upper: list[float]
     band: tuple[list[float], list[float]]
+    terms: dict[str, tuple[float, float, float]]
+    units: dict[str, str]
 
 
 @dataclass(frozen=True)
 class BranchCountRecord:
     """The branch-count stage's record: ``fits`` by count (as a string key), the data on the thinned grid
-    (``time_s``, ``force_mN``; every ``thin``-th sample), the generating count."""
+    (``time_s``, ``force_mN``; every ``thin``-th sample), the generating count, and the tissue terms of the
+    generating values (``truth_terms``, quantity -> value)."""
 
     SCHEMA: ClassVar[str] = "bayestissue.branch_count"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
     mode: str
     true_branches: int
     thin: int
     time_s: list[float]
     force_mN: list[float]
     fits: dict[str, BranchFit]
+    truth_terms: dict[str, float]
 
     @property
     def counts(self) -> list[int]:
@@ -162,6 +168,12 @@ class BranchCountRecord:
         (:meth:`decides`)."""
         others = [n for n in self.counts if n != self.best]
         return self.best if others and all(self.decides(n)[0] for n in others) else None
+
+    def recovered(self, n: int) -> dict[str, bool]:
+        """Per tissue term that count ``n`` and the generating model share: whether its 90 % interval holds the
+        generating value."""
+        terms = self.fits[str(n)].terms
+        return {q: bool(terms[q][0] <= v <= terms[q][2]) for q, v in self.truth_terms.items() if q in terms}
 
     def grades(self) -> dict[int, tuple[float, float, str]]:
         """Per other count: (ln B of the best over it, error, grade)."""

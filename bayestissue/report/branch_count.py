@@ -4,7 +4,24 @@ whether each count's runs belong to the current code."""
 
 from __future__ import annotations
 
-__all__ = ["branch_count_context"]
+__all__ = ["TERMS_SHOWN", "branch_count_context"]
+
+#: The tissue terms the section shows beside the generating values, with every relaxation time (the summary file
+#: has them all).
+TERMS_SHOWN = ("secant modulus (instantaneous)", "secant modulus (equilibrium)", "relaxation at full hold")
+
+
+def _terms(rec) -> list[dict]:
+    """Per shown tissue term: its unit, the generating value and each count's (5 %, median, 95 %) or None."""
+    names = dict.fromkeys(q for n in rec.counts for q in rec.fits[str(n)].terms)
+    rows = []
+    for q in names:
+        if q not in TERMS_SHOWN and not q.startswith("relaxation time"):
+            continue
+        unit = next(rec.fits[str(n)].units[q] for n in rec.counts if q in rec.fits[str(n)].units)
+        rows.append({"quantity": q, "unit": unit, "truth": rec.truth_terms.get(q),
+                     "counts": [rec.fits[str(n)].terms.get(q) for n in rec.counts]})  # fmt: skip
+    return rows
 
 
 def _row(rec, n: int, now: dict[int, str] | None) -> dict:
@@ -27,6 +44,9 @@ def branch_count_context(record, now: dict[int, str] | None) -> dict | None:
         return None
     rows = [_row(record, n, now) for n in record.counts]
     stale = [r["n"] for r in rows if r["current"] is False]
+    inside = record.recovered(record.true_branches) if str(record.true_branches) in record.fits else {}
     return {"record": record, "rows": rows, "chosen": record.chosen, "best": record.best,
             "true": record.true_branches, "stale": stale, "scattered": [r for r in rows if r.get("bound") is not None],
-            "others": [r for r in rows if not r["best"]]}  # fmt: skip
+            "others": [r for r in rows if not r["best"]], "terms": _terms(record),
+            "recovered": {"inside": sum(inside.values()), "total": len(inside),
+                          "missed": [q for q, ok in inside.items() if not ok]}}  # fmt: skip

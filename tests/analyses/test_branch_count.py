@@ -83,6 +83,10 @@ def test_the_evidence_picks_the_best_count_by_the_rule_its_runs_allow(record):
     assert _with(record, 3, peak_reached=[True, False, True, True]).chosen is None
     agree = _with(record, 3, log_z_p=0.5, merged=(record.log_z(2)[0] - 1.5, 0.05))
     assert agree.decides(3) == (True, "runs agree") and agree.chosen == 2
+    # the generating count recovers every tissue term (the two relaxation times 1.86 and 29.8 s against 2 and 30);
+    # one branch misses the relaxation at full hold (34.4 % against 44.9) and both its time and moduli
+    assert record.recovered(2) == dict.fromkeys(record.truth_terms, True) and len(record.truth_terms) == 9
+    assert not record.recovered(1)["relaxation at full hold"] and not record.recovered(1)["relaxation time t1"]
     one = dataclasses.replace(record, fits={"2": record.fits["2"]})
     assert one.chosen is None  # one count is no comparison
 
@@ -155,5 +159,9 @@ def test_the_quick_stage_fits_one_and_two_branches_and_writes_its_record(tmp_pat
         assert f.evidence.numbers_hash == BC.count_hash("quick", ROOT, n)
         assert len(f.evidence.log_z) == BC.QUICK["nested"]["n_runs"] and len(f.median) == len(rec.time_s) == 161
         assert np.all(np.asarray(f.lower) <= np.asarray(f.upper))
+        times = [q for q in f.terms if q.startswith("relaxation time")]
+        assert len(times) == n and all(f.units[q] == "s" for q in times)
+    assert rec.truth_terms["relaxation time t1"] == pytest.approx(2.0)
+    assert rec.truth_terms["relaxation time t1_2"] == pytest.approx(30.0, rel=1e-4)
     assert "| 1 | 6 |" in (tmp_path / "branch_count.md").read_text()
     assert (tmp_path / "branch_count.png").is_file()
