@@ -33,6 +33,7 @@ from bayestissue.analyses.branch_count import (  # noqa: E402
     CONFIGS,
     DATA,
     QUICK,
+    SCATTER_RULE,
     TRUE_BRANCHES,
     BranchCountRecord,
     BranchFit,
@@ -91,7 +92,7 @@ def _summary(rec: BranchCountRecord) -> str:
     lines.append(f"The evidence picks: {picks} (largest log Z: {rec.best})\n")
     for n, (b, e, grade) in rec.grades().items():
         ok, rule = rec.decides(n)
-        bound = f"; over its highest run + 2 sd: {rec.scatter_bound(n):.2f}" if rule == "highest run + 2 sd" else ""
+        bound = f"; over its {SCATTER_RULE}: {rec.scatter_bound(n):.2f}" if rule == SCATTER_RULE else ""
         lines.append(f"- ln B {rec.best} over {n} branch(es): {b:.2f} +- {e:.2f} ({grade}{bound}): "
                      f"{'decides' if ok else 'does not decide'} ({rule})")  # fmt: skip
     lines += ["", "| branches | parameters | log Z per run (own error) | merged | runs agree | fit | verdict | code "
@@ -106,13 +107,11 @@ def _summary(rec: BranchCountRecord) -> str:
     lines += ["", "Tissue terms (median [90 %]; `workflows/tissue_terms.py`) against the generating values:", "",
               "| quantity | unit | generating | " + " | ".join(f"{n} branch(es)" for n in rec.counts) + " |",
               "|---|---|---|" + "---|" * len(rec.counts)]  # fmt: skip
-    quantities = list(dict.fromkeys(q for n in rec.counts for q in rec.fits[str(n)].terms))
-    for q in quantities:
+    for q in rec.term_names:
         truth = rec.truth_terms.get(q)
         cells = [f"{t[1]:.4g} [{t[0]:.4g}, {t[2]:.4g}]" if (t := rec.fits[str(n)].terms.get(q)) else "-"
                  for n in rec.counts]  # fmt: skip
-        unit = next(rec.fits[str(n)].units[q] for n in rec.counts if q in rec.fits[str(n)].units)
-        lines.append(f"| {q} | {unit} | {'-' if truth is None else f'{truth:.4g}'} | "
+        lines.append(f"| {q} | {rec.unit(q)} | {'-' if truth is None else f'{truth:.4g}'} | "
                      + " | ".join(cells) + " |")  # fmt: skip
     for n in rec.counts:
         e = rec.fits[str(n)].evidence

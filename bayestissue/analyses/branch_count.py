@@ -34,10 +34,10 @@ import numpy as np
 
 from bayestissue.analyses.model_choice import SOURCES, ModelEvidence
 from bayestissue.analyses.verdicts import (
-    SCATTER_MARGIN,
     evidence_decides,
     evidence_rejects_scattered,
     evidence_strength,
+    scattered_upper,
 )
 from bayestissue.io.results import hash_sources
 
@@ -47,6 +47,7 @@ __all__ = [
     "DATA",
     "DATA_CSV",
     "QUICK",
+    "SCATTER_RULE",
     "TRUE_BRANCHES",
     "BranchCountRecord",
     "BranchFit",
@@ -60,6 +61,8 @@ TRUE_BRANCHES = 2
 #: configuration (in ``examples/``).
 DATA = {1: "tendon_relaxation_one_branch.toml", 2: "tendon_relaxation.toml", 3: "tendon_relaxation_three_branches.toml"}
 CONFIGS = {1: "tendon_one_branch.toml", 2: "tendon_relaxation.toml", 3: "tendon_three_branches.toml"}
+#: :meth:`BranchCountRecord.decides`'s name of the rule that rejects a count whose runs disagree.
+SCATTER_RULE = "highest run + 2 sd"
 #: The data every count fits.
 DATA_CSV = "tendon_relaxation.csv"
 #: ``--quick``: the nested settings replaced (a capped smoke run of the same code; its numbers mean nothing) and the
@@ -152,15 +155,13 @@ class BranchCountRecord:
             return ok, "runs agree" if ok else "not graded positive"
         if not a.runs_agree:
             return False, f"the {self.best}-branch runs disagree"
-        ok = evidence_rejects_scattered(tuple(a.merged), True, b.log_z,
-                                        [f and p for f, p in zip(b.finished, b.peak_reached, strict=True)])  # fmt: skip
-        return ok, "highest run + 2 sd" if ok else f"the {n}-branch runs disagree"
+        ok = evidence_rejects_scattered(tuple(a.merged), True, b.log_z, b.runs_ok)
+        return ok, SCATTER_RULE if ok else f"the {n}-branch runs disagree"
 
     def scatter_bound(self, n: int) -> float:
         """ln B of the best count over count ``n``'s highest run plus two sds of its runs (the bound of
         :func:`~bayestissue.analyses.verdicts.evidence_rejects_scattered`)."""
-        z = np.asarray(self.fits[str(n)].evidence.log_z, dtype=float)
-        return float(self.log_z(self.best)[0] - (z.max() + SCATTER_MARGIN * np.std(z, ddof=1)))
+        return float(self.log_z(self.best)[0] - scattered_upper(self.fits[str(n)].evidence.log_z))
 
     @property
     def chosen(self) -> int | None:
@@ -168,6 +169,15 @@ class BranchCountRecord:
         (:meth:`decides`)."""
         others = [n for n in self.counts if n != self.best]
         return self.best if others and all(self.decides(n)[0] for n in others) else None
+
+    @property
+    def term_names(self) -> list[str]:
+        """Every tissue term of any count, in the counts' order."""
+        return list(dict.fromkeys(q for n in self.counts for q in self.fits[str(n)].terms))
+
+    def unit(self, term: str) -> str:
+        """The unit of tissue term ``term`` (from the first count that has it)."""
+        return next(self.fits[str(n)].units[term] for n in self.counts if term in self.fits[str(n)].units)
 
     def recovered(self, n: int) -> dict[str, bool]:
         """Per tissue term that count ``n`` and the generating model share: whether its 90 % interval holds the

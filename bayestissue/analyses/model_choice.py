@@ -209,10 +209,14 @@ class ModelEvidence:
         return self.quantiles[self.names.index(name)]
 
     @property
+    def runs_ok(self) -> list[bool]:
+        """Per run: finished (not capped) and at the peak."""
+        return [f and p for f, p in zip(self.finished, self.peak_reached, strict=True)]
+
+    @property
     def runs_agree(self) -> bool:
         """Whether the runs agree on the evidence (:func:`~bayestissue.analyses.verdicts.evidence_consistent`)."""
-        ok = [f and p for f, p in zip(self.finished, self.peak_reached, strict=True)]
-        return evidence_consistent(self.log_z_p, ok)
+        return evidence_consistent(self.log_z_p, self.runs_ok)
 
     @property
     def wall_text(self) -> str:

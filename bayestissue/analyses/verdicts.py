@@ -77,6 +77,7 @@ __all__ = [
     "evidence_consistent",
     "evidence_decides",
     "evidence_rejects_scattered",
+    "scattered_upper",
     "SCATTER_MARGIN",
     "BAYES_ERROR_SIGMAS",
     "BAYES_POSITIVE",
@@ -381,5 +382,11 @@ def evidence_rejects_scattered(favoured: tuple[float, float], favoured_agree: bo
     runs_ok = list(runs_ok)
     if not (favoured_agree and len(runs_ok) == z.size >= EVIDENCE_MIN_RUNS and all(runs_ok)):
         return False
-    bound = float(np.max(z) + SCATTER_MARGIN * np.std(z, ddof=1))
-    return evidence_strength(favoured[0] - bound, favoured[1]) in DECISIVE_GRADES
+    return evidence_strength(favoured[0] - scattered_upper(z), favoured[1]) in DECISIVE_GRADES
+
+
+def scattered_upper(runs) -> float:
+    """The generous upper estimate of an evidence whose runs disagree (:func:`evidence_rejects_scattered`): the
+    highest run's log Z plus :data:`SCATTER_MARGIN` sample standard deviations of the runs."""
+    z = np.asarray(list(runs), dtype=float)
+    return float(np.max(z) + SCATTER_MARGIN * np.std(z, ddof=1))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from bayestissue.analyses.branch_count import SCATTER_RULE
 from bayestissue.plotting.style import FONT, tidy_axes
 
 __all__ = ["BRANCH_COLOURS", "plot_branch_count"]
@@ -61,9 +62,9 @@ def _evidence(ax, rec) -> None:
         ax.errorbar(x, np.asarray(e.log_z) - best, yerr=e.log_z_err, fmt="o", color=c, ms=4, capsize=2)
         z, s = e.merged
         ax.errorbar([i + 0.32], [z - best], yerr=[s], fmt="s", color=c, ms=6, capsize=3)
-        if n != rec.best and rec.decides(n)[1] == "highest run + 2 sd":  # the bound that rejects scattered runs
+        if n != rec.best and rec.decides(n)[1] == SCATTER_RULE:  # the bound that rejects scattered runs
             ax.plot([i - 0.3, i + 0.4], [-rec.scatter_bound(n)] * 2, color=c, ls="--", lw=1)
-            ax.annotate("highest run + 2 sd", (i + 0.05, -rec.scatter_bound(n)), xytext=(0, 4),
+            ax.annotate(SCATTER_RULE, (i + 0.05, -rec.scatter_bound(n)), xytext=(0, 4),
                         textcoords="offset points", ha="center", fontsize=FONT["legend"], color=c)  # fmt: skip
     ax.set_yscale("symlog", linthresh=2.0)
     ax.axhline(0.0, color="0.4", lw=0.8)
@@ -73,7 +74,7 @@ def _evidence(ax, rec) -> None:
     ax.set_ylabel(f"log Z minus {rec.best} branches' merged log Z", fontsize=FONT["label"])
     chosen = rec.chosen
     lines = [f"ln B {rec.best} over {n}: {b:.2f} +- {s:.2f}" + (f" (bound {rec.scatter_bound(n):.2f})" if
-             rec.decides(n)[1] == "highest run + 2 sd" else "") for n, (b, s, _) in rec.grades().items()]  # fmt: skip
+             rec.decides(n)[1] == SCATTER_RULE else "") for n, (b, s, _) in rec.grades().items()]  # fmt: skip
     head = f"the evidence picks {chosen}" if chosen is not None else "the evidence does not decide"
     ax.set_title("\n".join([f"log Z: runs (o), merged (s); {head}", *lines]), fontsize=FONT["title"])
 

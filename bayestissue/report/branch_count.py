@@ -4,24 +4,18 @@ whether each count's runs belong to the current code."""
 
 from __future__ import annotations
 
-__all__ = ["TERMS_SHOWN", "branch_count_context"]
+from bayestissue.analyses.branch_count import SCATTER_RULE
+from bayestissue.report.population import shown_term
 
-#: The tissue terms the section shows beside the generating values, with every relaxation time (the summary file
-#: has them all).
-TERMS_SHOWN = ("secant modulus (instantaneous)", "secant modulus (equilibrium)", "relaxation at full hold")
+__all__ = ["branch_count_context"]
 
 
 def _terms(rec) -> list[dict]:
-    """Per shown tissue term: its unit, the generating value and each count's (5 %, median, 95 %) or None."""
-    names = dict.fromkeys(q for n in rec.counts for q in rec.fits[str(n)].terms)
-    rows = []
-    for q in names:
-        if q not in TERMS_SHOWN and not q.startswith("relaxation time"):
-            continue
-        unit = next(rec.fits[str(n)].units[q] for n in rec.counts if q in rec.fits[str(n)].units)
-        rows.append({"quantity": q, "unit": unit, "truth": rec.truth_terms.get(q),
-                     "counts": [rec.fits[str(n)].terms.get(q) for n in rec.counts]})  # fmt: skip
-    return rows
+    """Per shown tissue term (:func:`~bayestissue.report.population.shown_term`): its unit, the generating value and
+    each count's (5 %, median, 95 %) or None."""
+    return [{"quantity": q, "unit": rec.unit(q), "truth": rec.truth_terms.get(q),
+             "counts": [rec.fits[str(n)].terms.get(q) for n in rec.counts]}
+            for q in rec.term_names if shown_term(q)]  # fmt: skip
 
 
 def _row(rec, n: int, now: dict[int, str] | None) -> dict:
@@ -33,7 +27,7 @@ def _row(rec, n: int, now: dict[int, str] | None) -> dict:
         log_b, err, grade = rec.grades()[n]
         decides, rule = rec.decides(n)
         row.update(log_b=log_b, err=err, grade=grade, decides=decides, rule=rule,
-                   bound=rec.scatter_bound(n) if rule == "highest run + 2 sd" else None)  # fmt: skip
+                   bound=rec.scatter_bound(n) if rule == SCATTER_RULE else None)  # fmt: skip
     return row
 
 

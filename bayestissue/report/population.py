@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["population_context"]
+__all__ = ["TISSUE_SHOWN", "population_context", "shown_term"]
 
 
 def _recovered(case) -> dict | None:
@@ -24,12 +24,17 @@ def _recovered(case) -> dict | None:
 TISSUE_SHOWN = ("secant modulus (instantaneous)", "secant modulus (equilibrium)", "relaxation at full hold")
 
 
+def shown_term(name: str) -> bool:
+    """Whether the report shows tissue term ``name``: one of :data:`TISSUE_SHOWN` or a relaxation time."""
+    return name in TISSUE_SHOWN or name.startswith("relaxation time")
+
+
 def _tissue(case) -> list[dict]:
     """Per shown quantity (and every relaxation time): each group's typical specimen and new-specimen range, and
     each non-reference group's effect."""
     rows = []
     for name, unit in case.tissue_units.items():
-        if name not in TISSUE_SHOWN and not name.startswith("relaxation time"):
+        if not shown_term(name):
             continue
         groups = [{"group": g, "q": case.tissue[f"{g}:{name}"][:3], "new": case.tissue[f"{g}:{name}"][3:]}
                   for g in case.groups]  # fmt: skip
