@@ -1,18 +1,17 @@
 """The study runner (studies/run_study.py, the README's main command): stage selection."""
 
-import importlib.util
 from pathlib import Path
 
 import pytest
+
+from tests.study_module import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture()
 def runner(monkeypatch):
-    spec = importlib.util.spec_from_file_location("run_study_under_test", ROOT / "studies" / "run_study.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_study("run_study")
     ran = []
 
     class Stage:

@@ -2,7 +2,6 @@
 count, how the default study reads a committed record back, and its figure."""
 
 import dataclasses
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -16,6 +15,7 @@ from bayestissue.analyses import branch_count as BC
 from bayestissue.analyses.records import FILES
 from bayestissue.io.records import read_record, write_record
 from bayestissue.plotting.branch_count import plot_branch_count
+from tests.study_module import load_study
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "tests" / "report" / "fixtures" / FILES[BC.BranchCountRecord]
@@ -28,10 +28,7 @@ def record():
 
 @pytest.fixture()
 def stage():
-    spec = importlib.util.spec_from_file_location("tendon_branches_under_test", ROOT / "studies" / "tendon_branches.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_study("tendon_branches")
 
 
 def _with(rec, n, **changes):

@@ -2,7 +2,6 @@
 study reads a committed record back, and its figure."""
 
 import dataclasses
-import importlib.util
 import os
 import subprocess
 import sys
@@ -19,6 +18,7 @@ from bayestissue.inference.sampling.nested import nested_target
 from bayestissue.inference.sampling.ultranest_run import slice_steps
 from bayestissue.io.records import read_record, write_record
 from bayestissue.plotting.evidence import plot_model_choice
+from tests.study_module import load_study
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "tests" / "report" / "fixtures" / FILES[MC.ModelChoiceRecord]
@@ -31,10 +31,7 @@ def record():
 
 @pytest.fixture()
 def stage():
-    spec = importlib.util.spec_from_file_location("full_model_under_test", ROOT / "studies" / "full_model.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_study("full_model")
 
 
 def test_the_hash_follows_the_data_and_the_settings(tmp_path):

@@ -1,11 +1,12 @@
 """The micrograph validation stage (studies/micrograph_validation.py) end to end on its quick phantom: it writes
 the figures and a seed table whose every row has all its columns and whose counts cover every target."""
 
-import importlib.util
 import re
 from pathlib import Path
 
 import pytest
+
+from tests.study_module import load_study
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -17,11 +18,7 @@ def _cells(row: str) -> list[str]:
 
 @pytest.mark.slow
 def test_quick_validation_stage_writes_its_table_and_figures(tmp_path):
-    spec = importlib.util.spec_from_file_location(
-        "micrograph_validation", ROOT / "studies" / "micrograph_validation.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_study("micrograph_validation")
     module.main(["--quick", "--out", str(tmp_path)])
     text = (tmp_path / "micrographs_validation.md").read_text()
     for png in ("micrographs_validation.png", "micrographs_overlay.png"):
