@@ -117,10 +117,14 @@ SETTINGS = {
 #: gamma2's upper bound, docs/verification.md), so these settings are not yet enough either. UltraNest's mixture
 #: directions at 40 steps (2 runs, 2026-11-30) did not help: log Z 910.48 and 912.89, so the directions stay the
 #: region's. Nor did 800 live points (population 10, 2026-12-04/05): log Z 911.44-915.65, sd 1.8 against 2.1 at 400.
-#: The scale model takes population 10 (10 new points per step, not 100): on the mirror model that cost 3-4 x fewer
-#: calls for the same scatter (2 runs, docs/verification.md), and the scale model had no runs to keep.
+#: The full and scale models take population 10 (10 new points per step, not 100): on the mirror model that cost 3-4 x
+#: fewer calls for the same scatter (2 runs, docs/verification.md), and neither model had runs to keep.
 OVERRIDES = {
-    ("full", "joint"): {"mirror": {"slice_steps": 40}, "full": {"slice_steps": 52}, "scale": {"slice_steps": 44, "population": 10}},
+    ("full", "joint"): {
+        "mirror": {"slice_steps": 40},
+        "full": {"slice_steps": 52, "population": 10},
+        "scale": {"slice_steps": 44, "population": 10},
+    },
 }
 
 
