@@ -34,12 +34,12 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
     DATASETS,
     SETTINGS,
     STAGE_SEED,
-    TESTS,
     DataChoice,
     ModelChoiceRecord,
     current_hash,
     current_hashes,
     model_evidence,
+    model_problem,
     model_settings,
     rerun_command,
 )
@@ -51,22 +51,11 @@ from bayestissue.inference.sampling.nested import nested_target  # noqa: E402
 from bayestissue.inference.sampling.peak import peak_reference  # noqa: E402
 from bayestissue.inference.sampling.ultranest_run import slice_steps  # noqa: E402
 from bayestissue.io.records import read_record, write_record  # noqa: E402
-from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.evidence import plot_model_choice  # noqa: E402
-from bayestissue.workflows import load_config  # noqa: E402
-from bayestissue.workflows.problem import build_problem  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Random least-squares starts besides the paper's, for the peak check's reference (``fit``'s default is 8).
 LS_STARTS = {"quick": 0, "full": 8}
-
-
-def _problem(data: str, model: str):
-    """The calibration problem of ``model`` on ``data``'s bundled tests
-    (:data:`~bayestissue.analyses.model_choice.CANDIDATES`, :data:`~bayestissue.analyses.model_choice.TESTS`): the
-    default box prior, one noise sd per test."""
-    experiments = [load_experiment(ROOT / "data" / f"{test}.toml") for test in TESTS[data]]
-    return build_problem(experiments, load_config(None, **CANDIDATES[data][model]))
 
 
 def _peak(problem, options: NestedOptions, seed: int, n_starts: int) -> float:
@@ -101,7 +90,7 @@ def _case(mode: str, data: str, n_workers: int, old: DataChoice | None, chosen, 
         if model not in chosen:
             continue
         cache = ROOT / ".cache" / "model_choice" / key
-        problem = _problem(data, model)
+        problem = model_problem(ROOT / "data", data, model)
         opts = NestedOptions(**model_settings(mode, data, model), scheduler=settings["scheduler"],
                              n_processes=n_workers, report_every=50_000)  # fmt: skip
         n_dim = nested_target(problem, opts)[0]

@@ -39,6 +39,7 @@ STAGES = (
     ("laws", "law_choice.py"),
     ("specimens", "specimens.py"),
     ("full model", "full_model.py"),
+    ("evidence check", "evidence_check.py"),
     ("branches", "tendon_branches.py"),
     ("report", "report.py"),
 )

@@ -35,7 +35,10 @@ import numpy as np
 from bayestissue.analyses.box_width import BoxShift, box_shift
 from bayestissue.analyses.verdicts import evidence_consistent
 from bayestissue.io.results import hash_sources
+from bayestissue.mechanics import load_experiment
 from bayestissue.paper import MIRROR_TIES
+from bayestissue.workflows import load_config
+from bayestissue.workflows.problem import build_problem
 
 __all__ = [
     "DATASETS",
@@ -50,6 +53,7 @@ __all__ = [
     "current_hash",
     "current_hashes",
     "model_evidence",
+    "model_problem",
     "model_settings",
     "numbers_hash",
     "rerun_command",
@@ -131,6 +135,13 @@ OVERRIDES = {
 def model_settings(mode: str, data: str, model: str) -> dict:
     """The nested options of ``model`` on ``data`` under ``mode``: :data:`SETTINGS` with :data:`OVERRIDES`."""
     return {**SETTINGS[mode][model], **OVERRIDES.get((mode, data), {}).get(model, {})}
+
+
+def model_problem(data_dir: Path, data: str, model: str):
+    """The calibration problem of ``model`` on ``data``'s bundled tests in ``data_dir`` (:data:`CANDIDATES`,
+    :data:`TESTS`): the default box prior, one noise sd per test."""
+    experiments = [load_experiment(Path(data_dir) / f"{test}.toml") for test in TESTS[data]]
+    return build_problem(experiments, load_config(None, **CANDIDATES[data][model]))
 
 
 def rerun_command(data: str, models) -> str:

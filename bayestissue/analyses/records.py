@@ -14,6 +14,7 @@ laws                :class:`LawChoiceRecord`           each law on each material
 specimens           :class:`HierarchyRecord`           the hierarchical model's cases (analyses.hierarchy_record)
 full model          :class:`ModelChoiceRecord`         mirror vs 11-parameter model by nested runs (model_choice)
 branches            :class:`BranchCountRecord`         the tendon's Prony branch count by nested runs (branch_count)
+evidence check      :class:`EvidenceCheckRecord`       the models' evidence by importance sampling (evidence_check)
 ==================  =================================  ===========================================================
 
 Records hold measurements, not verdicts: the report applies the rules of :mod:`bayestissue.analyses.verdicts` to
@@ -461,7 +462,6 @@ class MaterialLaws:
 class LawChoiceRecord:
     SCHEMA: ClassVar[str] = "bayestissue.laws"
     VERSION: ClassVar[int] = 1
-
     mode: str
     materials: list[MaterialLaws]
     seconds: float
@@ -473,7 +473,6 @@ class TissueTermsRecord:
 
     SCHEMA: ClassVar[str] = "bayestissue.tissue_terms"
     VERSION: ClassVar[int] = 1
-
     mode: str
     strain: float
     units: dict[str, str]
@@ -481,6 +480,7 @@ class TissueTermsRecord:
 
 
 from bayestissue.analyses.branch_count import BranchCountRecord  # noqa: E402
+from bayestissue.analyses.evidence_check import EvidenceCheckRecord  # noqa: E402
 from bayestissue.analyses.hierarchy_record import HierarchyCase, HierarchyRecord  # noqa: E402
 from bayestissue.analyses.model_choice import ModelChoiceRecord  # noqa: E402
 
@@ -496,4 +496,5 @@ FILES = {
     HierarchyRecord: "hierarchy_record.json",
     ModelChoiceRecord: "model_choice_record.json",
     BranchCountRecord: "branch_count_record.json",
+    EvidenceCheckRecord: "evidence_check_record.json",
 }

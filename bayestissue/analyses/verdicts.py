@@ -57,6 +57,14 @@ Rules
   makes the rejected evidence uncertain upwards mostly; the margin covers a run's share of the scatter the other
   way. The rule never favours a model whose runs disagree. It was written after the synthetic tendon's three-branch
   runs disagreed (docs/verification.md), so it is reported beside the factor, never silently.
+* **Which model does a data set's evidence choose, by two estimators?** (:func:`evidence_choice`) the factor from
+  importance sampling (:mod:`~bayestissue.analyses.evidence_check`) rules where both its evidences are trusted
+  (Pareto k-hat below 0.7, batches consistent): its error is checked by the weights' tail and by independent
+  batches, where a nested runs' error is only checked by their scatter. It chooses by the grades above; a trusted
+  factor within error overrules a nested factor that decides. Where both estimators decide for different models,
+  nothing is chosen. Without a trusted importance-sampling factor, the nested runs' :func:`evidence_decides` rules.
+  The two factors are *apart* (:func:`estimators_apart`) when they differ by more than :data:`ESTIMATORS_APART`
+  of their combined errors: reported, since one of them has missed mass or misjudged its error.
 """
 
 from __future__ import annotations
@@ -74,6 +82,9 @@ __all__ = [
     "DECISIVE_GRADES",
     "EVIDENCE_MIN_RUNS",
     "EVIDENCE_P",
+    "ESTIMATORS_APART",
+    "estimators_apart",
+    "evidence_choice",
     "evidence_consistent",
     "evidence_decides",
     "evidence_rejects_scattered",
@@ -160,6 +171,8 @@ EVIDENCE_MIN_RUNS = NestedReport.min_runs
 #: still lies a positive grade below the favoured model (:func:`evidence_rejects_scattered`; 2: about 95 % one-sided
 #: for one further run under a normal scatter).
 SCATTER_MARGIN = 2.0
+#: Two estimates of one log Bayes factor are apart if they differ by more than this many of their combined errors.
+ESTIMATORS_APART = 2.0
 CAUSES = {1: "fibre law", 2: "fibre angle", 3: "specimen stiffness"}
 #: The cause models the controls fit, by key: the causes each one includes.
 CAUSE_MODELS = {"1": (1,), "2": (2,), "3": (3,), "1+2": (1, 2), "1+3": (1, 3), "2+3": (2, 3)}
@@ -390,3 +403,23 @@ def scattered_upper(runs) -> float:
     highest run's log Z plus :data:`SCATTER_MARGIN` sample standard deviations of the runs."""
     z = np.asarray(list(runs), dtype=float)
     return float(np.max(z) + SCATTER_MARGIN * np.std(z, ddof=1))
+
+
+def evidence_choice(nested: dict | None, check: dict | None) -> tuple[str | None, str]:
+    """The model a data set's evidence chooses and by what (module docstring): ``nested`` the nested runs' factor
+    and ``check`` the importance-sampling factor, each a mapping with ``favours`` and ``decides`` (``check`` also
+    ``trusted``), or None where it has not been computed. Returns ``(model or None, source)``, ``source`` one of
+    ``"importance sampling"``, ``"nested runs"``, ``"the estimators disagree"``, ``"not decided"``."""
+    if check is not None and check["trusted"]:
+        if nested is not None and nested["decides"] and check["decides"] and nested["favours"] != check["favours"]:
+            return None, "the estimators disagree"
+        return (check["favours"], "importance sampling") if check["decides"] else (None, "not decided")
+    if nested is not None and nested["decides"]:
+        return nested["favours"], "nested runs"
+    return None, "not decided"
+
+
+def estimators_apart(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Whether two estimates ``(ln B, error)`` of one factor differ by more than :data:`ESTIMATORS_APART` of their
+    combined errors."""
+    return bool(abs(a[0] - b[0]) > ESTIMATORS_APART * float(np.hypot(a[1], b[1])))

@@ -11,7 +11,14 @@ import numpy as np
 from bayestissue.analyses.box_width import FACTOR
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord, rerun_command
 from bayestissue.analyses.records import IdentifiabilityRecord
-from bayestissue.analyses.verdicts import EVIDENCE_MIN_RUNS, EVIDENCE_P, evidence_decides, evidence_strength
+from bayestissue.analyses.verdicts import (
+    EVIDENCE_MIN_RUNS,
+    EVIDENCE_P,
+    estimators_apart,
+    evidence_choice,
+    evidence_decides,
+    evidence_strength,
+)
 from bayestissue.paper import MIRROR_TIES, PAPER_PARAMETERS
 from bayestissue.parallel import projected_wall_time
 
@@ -88,16 +95,40 @@ def _pending(case: DataChoice, a: str, b: str) -> dict:
     return {"a": a, "b": b, "missing": missing, "rerun": rerun_command(case.data, missing)}
 
 
-def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None) -> dict:
+def _scale_quantiles(scale, check) -> list[float] | None:
+    """The stiffness scale's (5 %, median, 95 %): from the importance-sampling check where it is trusted, else from the
+    nested runs (``scale``, or None where the scale model has not run)."""
+    c = check.checks.get("scale") if check is not None else None
+    if c is not None and c.trusted and "scale" in c.names:
+        return c.quantiles[c.names.index("scale")]
+    return None if scale is None else scale.quantile("scale")
+
+
+def _checked(case: DataChoice, check, a: str, b: str) -> dict:
+    """Factor ``(a, b)`` by both estimators: the nested runs' (None where a model has not run), the importance
+    sampling's (None without the check), the model the two choose
+    (:func:`~bayestissue.analyses.verdicts.evidence_choice`) and whether they are apart."""
+    nested = _factor(case, a, b) if {a, b} <= case.models.keys() else None
+    checked = check.factor(a, b) if check is not None and {a, b} <= check.checks.keys() else None
+    chosen, source = evidence_choice(nested, checked)
+    apart = None if nested is None or checked is None else estimators_apart(
+        (nested["log_b"], nested["err"]), (checked["log_b"], checked["err"]))  # fmt: skip
+    return {"a": a, "b": b, "nested": nested, "check": checked, "chosen": chosen, "source": source, "apart": apart}
+
+
+def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None, check=None) -> dict:
     """The first of the data set's factors (:data:`~bayestissue.analyses.model_choice.FACTORS`: mirror over full)
     chooses the model; the others (the joint data set's stiffness scale over shared parameters) are reported beside
     it. A factor whose models have not both run yet (a data set's models may run in separate sessions) is listed in
-    ``pending`` with the models it still needs, and the choice is then not made (``ran`` False)."""
+    ``pending`` with the models it still needs. ``check``: the data set's importance-sampling check
+    (:class:`~bayestissue.analyses.evidence_check.CheckCase`) or None; ``choices`` holds every factor by both
+    estimators and the model they choose."""
     first, *rest = case.factors
     run = {f: _factor(case, *f) for f in case.factors_run}
     choice = run.get(first, {"decides": False})
     scale = case.models.get("scale")
     stale = None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash]
+    choices = [_checked(case, check, a, b) for a, b in case.factors]
     return {
         **choice,
         "ran": first in run,
@@ -110,21 +141,35 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
         "others": [run[f] for f in rest if f in run],
         "factors": list(run.values()),
         "pending": [_pending(case, a, b) for a, b in case.factors if (a, b) not in run],
-        "scale_q": None if scale is None else scale.quantile("scale"),
+        "scale_q": _scale_quantiles(scale, check),
         "stale": stale,
         "rerun_stale": rerun_command(case.data, stale or []),
         # Table 1 and our least squares exist per test, not for the joint data set
         "rows": _rows(case, I) if case.data in PAPER_PARAMETERS else [],
+        "check": check,
+        "choices": choices,
+        "chosen": choices[0]["chosen"],
+        "chosen_by": choices[0]["source"],
     }
 
 
 def model_choice_context(
-    rec: ModelChoiceRecord | None, I: IdentifiabilityRecord, now: dict[str, dict[str, str]] | None
+    rec: ModelChoiceRecord | None,
+    I: IdentifiabilityRecord,
+    now: dict[str, dict[str, str]] | None,
+    check=None,
+    check_now: dict[str, dict[str, str]] | None = None,
 ) -> dict | None:
     """Everything the model-choice lines read; None without the record. ``now``: data set -> model -> the current
-    code's hash for the record's mode (:func:`~bayestissue.analyses.model_choice.current_hash`; None: not checked)."""
+    code's hash for the record's mode (:func:`~bayestissue.analyses.model_choice.current_hash`; None: not checked).
+    ``check``: the importance-sampling record (:class:`~bayestissue.analyses.evidence_check.EvidenceCheckRecord`) or
+    None, ``check_now`` its current hashes likewise (:func:`~bayestissue.analyses.evidence_check.check_hash`)."""
     if rec is None:
         return None
     now = now or {}
-    return {"record": rec, "cases": [_case(c, I, now.get(d)) for d, c in rec.cases.items()],
-            "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR}  # fmt: skip
+    cases = [_case(c, I, now.get(d), check.cases.get(d) if check is not None else None) for d, c in rec.cases.items()]
+    stale = [] if check is None or check_now is None else [
+        f"{d} {m}" for d, c in check.cases.items() for m, e in c.checks.items()
+        if check_now.get(d, {}).get(m) != e.numbers_hash]  # fmt: skip
+    return {"record": rec, "cases": cases, "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR,
+            "check": check, "check_stale": stale}  # fmt: skip

@@ -95,7 +95,9 @@ def report_context(records: StudyRecords) -> dict:
         "laws": laws_context(records.laws),
         "terms": _terms(records.tissue_terms),
         "population": population_context(records.hierarchy),
-        "model_choice": model_choice_context(records.model_choice, I, records.model_choice_now),
+        "model_choice": model_choice_context(
+            records.model_choice, I, records.model_choice_now, records.evidence_check, records.evidence_check_now
+        ),  # fmt: skip
         "branches": branch_count_context(records.branch_count, records.branch_count_now),
     }
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bayestissue.analyses.branch_count import BranchCountRecord, count_hash
+from bayestissue.analyses.evidence_check import EvidenceCheckRecord, check_hash
 from bayestissue.analyses.identifiability import LABELS
 from bayestissue.analyses.model_choice import ModelChoiceRecord, current_hashes
 from bayestissue.analyses.records import (
@@ -45,14 +46,18 @@ class StudyRecords:
     branch_count: BranchCountRecord | None = None
     #: branch count -> the current code's, data's and configuration's hash (None: not checked)
     branch_count_now: dict[int, str] | None = None
+    evidence_check: EvidenceCheckRecord | None = None
+    #: data set -> model -> the current code's and data's hash for the evidence check's mode (None: not checked)
+    evidence_check_now: dict[str, dict[str, str]] | None = None
 
 
 def read_study_records(folder) -> StudyRecords:
     """Read every record in ``folder`` (:data:`bayestissue.analyses.records.FILES`); the calibration, controls,
-    measured-data, laws, tissue-terms, hierarchy, model-choice and branch-count records are optional (their stages
-    may not have run), the other two are not. The model-choice and branch-count records are checked against the
-    current code (:func:`~bayestissue.analyses.model_choice.current_hashes`,
-    :func:`~bayestissue.analyses.branch_count.count_hash`) where the source checkout's data are at hand."""
+    measured-data, laws, tissue-terms, hierarchy, model-choice, branch-count and evidence-check records are optional
+    (their stages may not have run), the other two are not. The model-choice, branch-count and evidence-check records
+    are checked against the current code (:func:`~bayestissue.analyses.model_choice.current_hashes`,
+    :func:`~bayestissue.analyses.branch_count.count_hash`, :func:`~bayestissue.analyses.evidence_check.check_hash`)
+    where the source checkout's data are at hand."""
     folder = Path(folder)
 
     def optional(cls):
@@ -65,6 +70,9 @@ def read_study_records(folder) -> StudyRecords:
     root = DATA_DIR.parent
     checkable = branches is not None and DATA_DIR.is_dir() and (root / "examples").is_dir()
     branches_now = {n: count_hash(branches.mode, root, n) for n in branches.counts} if checkable else None
+    check = optional(EvidenceCheckRecord)
+    check_now = None if check is None or not DATA_DIR.is_dir() else {
+        d: {m: check_hash(check.mode, DATA_DIR, d, m) for m in c.checks} for d, c in check.cases.items()}  # fmt: skip
     return StudyRecords(
         identifiability=read_record(folder / FILES[IdentifiabilityRecord], IdentifiabilityRecord),
         discrepancy=read_record(folder / FILES[DiscrepancyRecord], DiscrepancyRecord),
@@ -78,4 +86,6 @@ def read_study_records(folder) -> StudyRecords:
         model_choice_now=now,
         branch_count=branches,
         branch_count_now=branches_now,
+        evidence_check=check,
+        evidence_check_now=check_now,
     )

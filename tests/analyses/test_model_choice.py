@@ -58,7 +58,7 @@ def test_a_data_set_override_changes_that_data_set_only(stage):
     dimension the runs sample (twice UltraNest's default); T1 and T2 keep SETTINGS (their hashes are those of the
     settings without an override), and --quick has none."""
     for model, over in MC.OVERRIDES["full", "joint"].items():
-        problem = stage._problem("joint", model)
+        problem = MC.model_problem(ROOT / "data", "joint", model)
         opts = NestedOptions(**MC.model_settings("full", "joint", model))
         n_dim = nested_target(problem, opts)[0]
         assert over["slice_steps"] == 4 * problem.ndim and n_dim == problem.ndim - 2
@@ -210,7 +210,7 @@ def test_the_joint_data_set_fits_both_tests_and_adds_a_t2_stiffness_scale(stage,
     (data / "T2.csv").write_bytes((data / "T2.csv").read_bytes() + b"\n")
     assert MC.current_hash("full", data, "joint", "mirror") != joint
     assert MC.current_hash("full", data, "T1", "mirror") == MC.current_hash("full", ROOT / "data", "T1", "mirror")
-    problems = {m: stage._problem("joint", m) for m in MC.CANDIDATES["joint"]}
+    problems = {m: MC.model_problem(ROOT / "data", "joint", m) for m in MC.CANDIDATES["joint"]}
     assert list(problems) == ["mirror", "full", "scale"] and MC.FACTORS["joint"][1] == ("scale", "mirror")
     assert all(len(p.experiments) == 2 for p in problems.values())
     assert set(problems["scale"].names) - set(problems["mirror"].names) == {"scale"}

@@ -229,3 +229,28 @@ def test_a_model_whose_runs_disagree_is_rejected_only_below_its_highest_run_plus
     assert V.evidence_rejects_scattered((-535.6329357295343, 0.013935758778963697), True, tendon, ok)
     assert V.evidence_rejects_scattered((-537.402 + 0.34 + 1.01, 0.01), True, tendon, ok)
     assert not V.evidence_rejects_scattered((-537.402 + 0.34 + 0.99, 0.01), True, tendon, ok)
+
+
+def _f(favours, decides, trusted=True):
+    return {"favours": favours, "decides": decides, "trusted": trusted}
+
+
+def test_the_choice_by_two_estimators():
+    """The trusted importance-sampling factor rules (a decision or a within-error factor that overrules the nested
+    runs); two decisions for different models choose nothing; without a trusted check the nested runs rule."""
+    assert V.evidence_choice(_f("mirror", True), _f("mirror", True)) == ("mirror", "importance sampling")
+    assert V.evidence_choice(None, _f("full", True)) == ("full", "importance sampling")
+    assert V.evidence_choice(_f("mirror", True), _f("mirror", False)) == (None, "not decided")
+    assert V.evidence_choice(_f("mirror", True), _f("full", True)) == (None, "the estimators disagree")
+    assert V.evidence_choice(_f("mirror", False), _f("full", True)) == ("full", "importance sampling")
+    assert V.evidence_choice(_f("mirror", True), _f("full", True, trusted=False)) == ("mirror", "nested runs")
+    assert V.evidence_choice(_f("mirror", True), None) == ("mirror", "nested runs")
+    assert V.evidence_choice(_f("mirror", False), _f("full", True, trusted=False)) == (None, "not decided")
+    assert V.evidence_choice(None, None) == (None, "not decided")
+
+
+def test_two_estimates_are_apart_beyond_two_combined_errors():
+    err = np.hypot(0.3, 0.4)  # 0.5
+    assert not V.estimators_apart((1.0, 0.3), (1.0 + 2 * err - 1e-9, 0.4))
+    assert V.estimators_apart((1.0, 0.3), (1.0 + 2 * err + 1e-9, 0.4))
+    assert V.estimators_apart((1.0, 0.3), (1.0 - 2 * err - 1e-9, 0.4))

@@ -46,8 +46,10 @@ def test_the_report_opens_with_the_answers(records):
     # 6 260 -> 6 450 with the rate study's further truths (a table of 8 rows), 7 235 with the model choice (issue 36:
     # per test a table of the 11 parameters beside Table 1, 2 rows of runs' evidence and a line of verdict), 7 997
     # with the joint data set (3 rows of runs, the stiffness scale's factor) and the fixture's box-width table (4 rows),
-    # 8 677 with the branch count (issue 32: an answers row of 46 words, a section of 436 with tables of 3 and 6 rows)
-    assert sum(len(line.split()) for line in lines) < 8800
+    # 8 677 with the branch count (issue 32: an answers row of 46 words, a section of 436 with tables of 3 and 6 rows),
+    # 9 270 with the evidence by importance sampling (issue 36: a table of 7 rows, a bullet per factor, both estimators
+    # in the answers rows)
+    assert sum(len(line.split()) for line in lines) < 9400
 
 
 def test_verdicts_follow_the_records(records):
@@ -236,24 +238,27 @@ def test_the_model_choice_follows_the_runs_agreement_on_the_evidence_and_the_cod
         models = {"mirror": runs(m, f.merged[0] + shift), "full": runs(f, f.merged[0])}
         changed = dataclasses.replace(rec, cases={"T1": dataclasses.replace(case, models=models)})
         now = {"T1": {"mirror": now or "0" * 16, "full": "fixture-not-code"}}
-        text = render_report(dataclasses.replace(records, model_choice=changed, model_choice_now=now))
+        text = render_report(
+            dataclasses.replace(records, model_choice=changed, model_choice_now=now, evidence_check=None)
+        )
         row = next(line for line in text.splitlines() if line.startswith("| Which model do the data support"))
         return row, text
 
     row, text = render(True, shift=2.0)  # ln B = 2 +- 0.14: positive for the mirror model
-    assert "| T1: **mirror** | T1: ln B mirror over full 2.00 +- 0.14 (positive)" in row
+    assert "| T1: **mirror** (nested runs) (the analyses use the mirror model) | T1: ln B mirror over full" in row
+    assert "by the nested runs 2.00 +- 0.14 (positive;" in row
     assert "**stale**: the mirror model's runs belong to other code" in text
     assert "(rerun `python studies/full_model.py --full --data T1 --models mirror`, which reruns only those)" in text
     row, _ = render(True, shift=-4.0)
-    assert "| T1: **full** | T1: ln B mirror over full -4.00 +- 0.14 (strong)" in row
+    assert "| T1: **full** (nested runs) | T1: ln B mirror over full by the nested runs -4.00 +- 0.14 (strong;" in row
     assert "| agree (scatter p = 0.5) | NOT CONVERGED |" in text
     row, text = render(False, shift=2.0, now="fixture-not-code")
-    assert "| T1: not decided yet (the analyses use the mirror model) |" in row
+    assert "| T1: not decided (the analyses use the mirror model) |" in row
     assert "runs agree on the evidence: mirror **no**, full **no**" in row
     assert "the current code's" in text and "the runs of the mirror and full model disagree on its evidence" in text
     assert "| **DISAGREE** (scatter p = 0.001) |" in text
     row, _ = render(True, shift=0.2)
-    assert "not decided yet" in row and "(within error)" in row
+    assert "T1: not decided" in row and "(within error;" in row
 
 
 def test_the_joint_data_set_reports_a_t2_stiffness_scale_beside_the_model_choice(records):
@@ -280,7 +285,7 @@ def test_the_joint_data_set_reports_a_t2_stiffness_scale_beside_the_model_choice
                                                                                  [0.8, 1.3, 2.0])}  # fmt: skip
         joint = MC.DataChoice(data="joint", seed=MC.STAGE_SEED + 20, models=models)
         changed = dataclasses.replace(rec, cases={**rec.cases, "joint": joint})
-        return render_report(dataclasses.replace(records, model_choice=changed))
+        return render_report(dataclasses.replace(records, model_choice=changed, evidence_check=None))
 
     text = render(4.0)
     assert (
@@ -290,10 +295,15 @@ def test_the_joint_data_set_reports_a_t2_stiffness_scale_beside_the_model_choice
         "strong for a stiffness scale: the evidence says T2's specimen differs in stiffness (scale 1.3 [0.8, 2" in text
     )
     assert "| joint | scale | ultranest |" in text and "| joint | paper |" not in text and "| T1 | paper |" in text
-    answer = "(evidence on both tests jointly) | **yes**: T2's moduli 1.3 [0.8, 2] x T1's | ln B scale over mirror 4.00"
-    assert f"| Do the two specimens differ in stiffness alone? {answer} +- 0.14 (strong)" in text
+    answer = (
+        "(evidence on both tests jointly) | **yes** (nested runs): T2's moduli 1.3 [0.8, 2] x T1's | ln B scale over"
+    )
+    assert (
+        f"| Do the two specimens differ in stiffness alone? {answer} mirror by the nested runs 4.00 +- 0.14 (strong;"
+        in text
+    )
     text = render(-4.0)
-    assert "differ in stiffness alone? (evidence on both tests jointly) | **no** |" in text
+    assert "differ in stiffness alone? (evidence on both tests jointly) | **no** (nested runs) |" in text
     assert "strong for shared parameters: the evidence says one parameter set serves both tests" in text
     assert "not decided" not in text.split("- **joint**")[1].split("\n")[0]
 
@@ -305,18 +315,18 @@ def test_a_data_set_whose_models_have_not_all_run_says_which_factor_waits_for_wh
     joint = rec.cases["joint"]
     partial = dataclasses.replace(joint, models={"mirror": joint.models["mirror"]})
     changed = dataclasses.replace(rec, cases={**rec.cases, "joint": partial})
-    text = render_report(dataclasses.replace(records, model_choice=changed))
+    text = render_report(dataclasses.replace(records, model_choice=changed, evidence_check=None))
     assert "| joint | mirror | ultranest |" in text and "| joint | full |" not in text
     bullet = text.split("- **joint**:")[1].split("\n")[0]
     assert "ln B mirror over full not yet: the full model has not run" in bullet
     assert "ln B scale over mirror not yet: the scale model has not run" in bullet
     assert "--data joint --models scale" in bullet and "**" not in bullet.split("Code and data")[0]
     assert "| Which model do the data support" in text and "joint: not yet, a model has not run" in text
-    agree = "yes" if joint.models["mirror"].runs_agree else "**no**"
-    assert f"joint: the full model not run yet, runs agree on the evidence: mirror {agree} |" in text
+    assert "joint: ln B mirror over full the nested runs of the full model not run yet |" in text
     assert "| Do the two specimens differ in stiffness alone? (evidence on both tests jointly) | not run yet |" in text
     # the tests run on their own are still decided as before
-    assert render_report(records).split("- **T1**:")[1].split("\n")[0] == text.split("- **T1**:")[1].split("\n")[0]
+    alone = render_report(dataclasses.replace(records, evidence_check=None))
+    assert alone.split("- **T1**:")[1].split("\n")[0] == text.split("- **T1**:")[1].split("\n")[0]
 
 
 def test_the_wall_time_is_projected_from_the_runs_measured_times(records):
@@ -378,6 +388,46 @@ def test_the_branch_count_section_states_the_pick_the_rule_and_stale_runs(record
     row = next(x for x in text.splitlines() if x.startswith("| How many relaxation times"))
     assert "| not decided |" in row
     assert "**The evidence does not decide** (largest log Z: 2 branches)" in text
-    assert "does not decide (the 2-branch runs disagree)" in text and "**Stale**" not in text
+    assert "does not decide (the 2-branch runs disagree)" in text and "- **Stale**: the runs of" not in text
     text = render_report(dataclasses.replace(records, branch_count=None))
     assert "How many relaxation times" not in text and "## 9." not in text
+
+
+def test_a_trusted_importance_sampling_factor_rules_the_model_choice(records):
+    """With both importance-sampling evidences trusted, their factor chooses (strong for the full model here, where
+    the nested runs say within error for the mirror model), the answers row and the section say so and name the
+    estimator; two decisions for different models choose nothing; untrusted checks leave the nested rule."""
+    check = records.evidence_check
+    t1 = check.cases["T1"]
+
+    def render(shift, trusted=True, nested_shift=None):
+        m, f = t1.checks["mirror"], t1.checks["full"]
+        checks = {"mirror": dataclasses.replace(m, log_z=f.log_z + shift, log_z_err=0.05, trusted=trusted),
+                  "full": dataclasses.replace(f, log_z_err=0.05, trusted=trusted)}  # fmt: skip
+        changed = dataclasses.replace(check, cases={"T1": dataclasses.replace(t1, checks=checks)})
+        mc = records.model_choice
+        if nested_shift is not None:
+            case = mc.cases["T1"]
+            mm, ff = case.models["mirror"], case.models["full"]
+            agree = {"log_z_p": 0.5, "finished": [True] * 4, "peak_reached": [True] * 4}
+            models = {"mirror": dataclasses.replace(mm, merged=(ff.merged[0] + nested_shift, 0.1), **agree),
+                      "full": dataclasses.replace(ff, merged=(ff.merged[0], 0.1), **agree)}  # fmt: skip
+            mc = dataclasses.replace(mc, cases={**mc.cases, "T1": dataclasses.replace(case, models=models)})
+        text = render_report(dataclasses.replace(records, evidence_check=changed, model_choice=mc))
+        row = next(line for line in text.splitlines() if line.startswith("| Which model do the data support"))
+        return row, text
+
+    row, text = render(-4.0)
+    assert row.startswith("| Which model do the data support: the paper's 11 parameters or the mirror model? | T1: "
+                          "**full** (importance sampling);")  # fmt: skip
+    assert "T1: ln B mirror over full by importance sampling -4.00 +- 0.07 (strong), by the nested runs" in row
+    assert "- **T1**, ln B mirror over full: by importance sampling **-4.00 +- 0.07** (strong)" in text
+    assert "the evidence chooses the **full** model (importance sampling)." in text
+    assert "(the analyses use the mirror model)" not in row
+    _, text = render(0.05)  # trusted and within error: no choice, whatever the nested runs say
+    assert "T1: not decided;" in text
+    row, text = render(4.0, nested_shift=-4.0)  # both decide, for different models
+    assert "T1: the estimators disagree;" in row
+    assert "(**apart**: more than 2 of their combined errors): the estimators disagree." in text
+    row, _ = render(4.0, trusted=False, nested_shift=-4.0)  # an untrusted check leaves the nested runs' choice
+    assert "T1: **full** (nested runs);" in row and "(strong, **not trusted**)" in row

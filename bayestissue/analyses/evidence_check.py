@@ -1,0 +1,213 @@
+r"""The evidence of the study's models a second way: importance sampling from a proposal fitted to a nested run
+(issue 36).
+
+The model-choice stage (:mod:`~bayestissue.analyses.model_choice`) estimates each model's evidence by 4 UltraNest runs;
+where the posterior has a flat ridge the runs disagree beyond their own errors (the joint mirror model: log Z
+911.4-917.2 over eight runs, T2's full model 322.5-325.6) and no factor can be read from them. This stage estimates the
+same evidence by importance sampling (:mod:`~bayestissue.inference.sampling.importance`): one cheap nautilus run of the
+same problem (:data:`CHECK_SETTINGS`: 500 live points, one network trained to 1e-4, 10 000 effective draws) supplies the
+draws a Student-t mixture is fitted to, 8 rounds of weighted EM adapt it, and 100 000 fresh draws give
+
+.. math:: \ln\hat Z = \ln \frac1N \sum_i \frac{L(u_i)}{q(u_i)}, \qquad
+   \ln B_{ab} = \ln\hat Z_a - \ln\hat Z_b, \quad \sigma_{\ln B} = \sqrt{\sigma_a^2 + \sigma_b^2},
+
+each :math:`\sigma` the delta-method error of the importance-sampling mean. An estimate counts (``trusted``) when the
+Pareto :math:`\hat k` of its weights is below 0.7 and its 4 batches agree with their own errors; a factor between two
+trusted estimates decides by :func:`~bayestissue.analyses.verdicts.evidence_decides`'s grades. The nautilus run's own
+log Z is kept beside it (:attr:`EvidenceCheck.proposal_log_z`), the model-choice record's runs are compared in the
+report.
+
+What this estimate cannot see is posterior mass in a region that neither the nautilus run nor the adaptation reached
+(the proposal then has no draws there; :mod:`~bayestissue.inference.sampling.importance`). Against that, its value
+is checked against the nested runs of the model-choice record: a run far above it would point to such a region.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+
+from bayestissue.analyses.model_choice import CANDIDATES, DATASETS, FACTORS, TESTS, model_problem, numbers_hash
+from bayestissue.analyses.verdicts import evidence_decides, evidence_strength
+from bayestissue.inference import NestedOptions, sample_nested
+from bayestissue.inference.evidence import LEVELS, weighted_quantile
+from bayestissue.inference.sampling.importance import (
+    ImportanceOptions,
+    fit_unit_proposal,
+    importance_evidence,
+    pooled_unit_draws,
+)
+from bayestissue.inference.sampling.nested import nested_target
+
+__all__ = [
+    "CHECK_SEED",
+    "CHECK_SETTINGS",
+    "CheckCase",
+    "DataProblems",
+    "EvidenceCheck",
+    "EvidenceCheckRecord",
+    "check_hash",
+    "check_model",
+    "check_task",
+]
+
+#: The stage's seed: data set ``j`` of :data:`~bayestissue.analyses.model_choice.DATASETS`, model ``k`` (its place
+#: in the data set's candidates) uses ``CHECK_SEED + 10 j + k``.
+CHECK_SEED = 20261206
+#: Per mode the nautilus run that supplies the proposal's draws (:class:`~bayestissue.inference.NestedOptions`) and
+#: the importance sampling (:class:`~bayestissue.inference.sampling.importance.ImportanceOptions`). Measured
+#: (2026-12-06): on the joint mirror model a nautilus run of 1 000 live points took 136 100 calls and 360 s to 2 000
+#: effective draws, 23 000 more to 20 000; a mixture fitted to those draws alone gave Pareto k-hat 0.78-0.89 at 16-100
+#: components (the largest weights where gamma2 nears its bound), after 8 rounds of adaptation 0.40 (ESS 4 048 of
+#: 60 000). On T1's mirror model the run of 1 000 live points took 549 700 calls and 894 s; from a run of 300 the
+#: adapted proposal gave k-hat 0.62 and log Z 991.87 +- 0.04 (the 1 000-point run's own: 991.82), so the stage's
+#: runs have 500. ``--quick`` is a capped smoke run (its numbers mean nothing).
+CHECK_SETTINGS = {
+    "quick": {
+        "proposal": {"n_live": 100, "n_eff": 200, "n_runs": 1, "n_networks": 1, "max_evaluations": 4000},
+        "importance": {"n_draws": 2000, "adapt_rounds": 1, "adapt_draws": 1000, "n_components": 4},
+    },
+    "full": {
+        "proposal": {"n_live": 500, "n_eff": 10000, "n_runs": 1, "n_networks": 1, "network_tol": 1e-4},
+        "importance": {"n_draws": 100_000, "adapt_rounds": 8, "adapt_draws": 40_000, "n_components": 48},
+    },
+}
+
+
+def check_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
+    """:func:`~bayestissue.analyses.model_choice.numbers_hash` of the current code, the data set's files, the seed and
+    ``mode``'s settings: it changes with anything the check's numbers depend on."""
+    files = [data_dir / f"{test}.{ext}" for test in TESTS[data] for ext in ("toml", "csv")]
+    return numbers_hash(files, repr(("importance", CHECK_SEED, model, CANDIDATES[data][model], CHECK_SETTINGS[mode])))
+
+
+@dataclass(frozen=True)
+class EvidenceCheck:
+    """One model's evidence by importance sampling on one data set.
+
+    ``proposal_*``: the nautilus run whose draws the proposal was fitted to (its own log Z, calls, seconds).
+    ``log_z``, ``log_z_err``: the estimate and its delta-method error; ``batch_log_z``/``batch_err`` the 4 batches',
+    ``batch_p`` their scatter's p-value; ``k_hat`` the weights' Pareto k-hat, ``ess`` their Kish effective sample
+    size of ``n_draws``; ``calls`` the likelihood calls of adaptation and estimate, ``failed`` the failed solves
+    among them, ``time_s`` their seconds; ``adapt_log_z`` each adaptation round's estimate (they approach the final
+    one as the proposal improves); ``trusted`` and ``verdict`` as
+    :class:`~bayestissue.inference.sampling.importance.ImportanceEvidence` says; ``quantiles[j]`` the 5 / 50 / 95 %
+    of sampled material parameter ``names[j]`` under the importance weights (folded where families are
+    exchangeable)."""
+
+    model: str
+    numbers_hash: str
+    names: list[str]
+    proposal_log_z: float
+    proposal_calls: int
+    proposal_s: float
+    log_z: float
+    log_z_err: float
+    batch_log_z: list[float]
+    batch_err: list[float]
+    batch_p: float
+    k_hat: float
+    ess: float
+    n_draws: int
+    calls: int
+    failed: int
+    time_s: float
+    adapt_log_z: list[float]
+    trusted: bool
+    verdict: str
+    quantiles: list[list[float]]
+
+
+@dataclass(frozen=True)
+class CheckCase:
+    """The checked models of one data set (``checks`` by model name)."""
+
+    data: str
+    checks: dict[str, EvidenceCheck]
+
+    @property
+    def factors_run(self) -> tuple[tuple[str, str], ...]:
+        """The data set's factors (:data:`~bayestissue.analyses.model_choice.FACTORS`) whose models are both checked."""
+        return tuple((a, b) for a, b in FACTORS[self.data] if a in self.checks and b in self.checks)
+
+    def log_bayes(self, a: str, b: str) -> tuple[float, float]:
+        """:math:`\\ln B` of ``a`` over ``b`` and its error (module docstring)."""
+        x, y = self.checks[a], self.checks[b]
+        return float(x.log_z - y.log_z), float(np.hypot(x.log_z_err, y.log_z_err))
+
+    def factor(self, a: str, b: str) -> dict:
+        """ln B of ``a`` over ``b``, the model it favours, its grade, whether both estimates are trusted and whether
+        it decides (:func:`~bayestissue.analyses.verdicts.evidence_decides`)."""
+        log_b, err = self.log_bayes(a, b)
+        trusted = self.checks[a].trusted and self.checks[b].trusted
+        return {"a": a, "b": b, "log_b": log_b, "err": err, "favours": a if log_b > 0 else b,
+                "grade": evidence_strength(abs(log_b), err), "trusted": trusted,
+                "decides": evidence_decides(log_b, err, trusted)}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class EvidenceCheckRecord:
+    """The evidence-check stage's record: one :class:`CheckCase` per data set checked, in
+    :data:`~bayestissue.analyses.model_choice.DATASETS` order."""
+
+    SCHEMA: ClassVar[str] = "bayestissue.evidence_check"
+    VERSION: ClassVar[int] = 1
+    mode: str
+    cases: dict[str, CheckCase]
+
+    def ordered(self) -> list[CheckCase]:
+        return [self.cases[d] for d in DATASETS if d in self.cases]
+
+
+def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed: int, progress) -> EvidenceCheck:
+    """One model's check on the data set ``data`` (its files in ``data_dir``, for the hash): the nautilus run, the
+    proposal fitted to its draws, importance sampling (module docstring); ``progress(line)`` says where it is."""
+    settings = CHECK_SETTINGS[mode]
+    opts = NestedOptions(**settings["proposal"], n_processes=1, report_every=20_000)
+    t0 = time.perf_counter()
+    sample = sample_nested(problem, options=opts, rng=seed)
+    run = sample.runs[0]
+    progress(f"{data} {model}: nautilus {run.n_like} calls, {time.perf_counter() - t0:.0f} s, its log Z "
+             f"{run.log_z:.3f}; importance sampling")  # fmt: skip
+    n_dim, prior, log_l, _ = nested_target(problem, opts)
+    u, w = pooled_unit_draws(sample)
+    iopts = ImportanceOptions(**settings["importance"])
+    res = importance_evidence(lambda x: log_l(prior(x)), fit_unit_proposal(u, iopts, weights=w, seed=seed), iopts,
+                              rng=seed)  # fmt: skip
+    x = prior(res.unit)
+    padded = np.zeros((x.shape[0], problem.ndim))
+    padded[:, :n_dim] = x
+    folded = problem.canonical(padded)[:, :n_dim]
+    wn = np.exp(res.log_w)
+    q = [weighted_quantile(folded[:, j], wn, LEVELS).tolist() for j in range(n_dim)]
+    progress(f"{data} {model}: {res.verdict()}")
+    return EvidenceCheck(model=model, numbers_hash=check_hash(mode, data_dir, data, model),
+                         names=list(problem.material.sampled_names), proposal_log_z=float(run.log_z),
+                         proposal_calls=int(run.n_like), proposal_s=float(run.time_s), log_z=res.log_z,
+                         log_z_err=res.log_z_err, batch_log_z=res.batch_log_z.tolist(),
+                         batch_err=res.batch_err.tolist(), batch_p=res.batch_p, k_hat=res.k_hat, ess=res.ess,
+                         n_draws=res.n_draws, calls=res.n_calls, failed=res.n_failed, time_s=res.time_s,
+                         adapt_log_z=list(res.adapt_log_z), trusted=res.trusted, verdict=res.verdict(),
+                         quantiles=q)  # fmt: skip
+
+
+class DataProblems:
+    """The calibration problems of one data set's ``models`` by name (:func:`~.model_choice.model_problem`), handed
+    to forked workers as one object (:func:`check_task`)."""
+
+    def __init__(self, data_dir: Path, data: str, models):
+        self.data_dir, self.data = Path(data_dir), data
+        self.by_model = {m: model_problem(self.data_dir, data, m) for m in models}
+
+
+def check_task(problems: DataProblems, model: str, mode: str, seed: int, progress) -> EvidenceCheck | str:
+    """A worker's task (:func:`~bayestissue.inference.sampling.processes.run_in_processes`): one model's check, or
+    the one-line error that stopped it (so that one model's failure does not lose the others' work)."""
+    try:
+        return check_model(problems.by_model[model], problems.data_dir, problems.data, model, mode, seed, progress)
+    except Exception as err:  # noqa: BLE001 -- reported by the stage, which records the models that finished
+        return f"{type(err).__name__}: {err}"

@@ -1,0 +1,338 @@
+"""The evidence by importance sampling from a proposal fitted to posterior draws: an estimator that does not compress.
+
+Nested sampling estimates :math:`Z = \\int L(\\theta)\\,\\pi(\\theta)\\,d\\theta` by shrinking the prior shell by shell;
+where its new points are not fair draws inside the contour (a thin curved ridge, a plateau whose parts the live points
+settle on unevenly) every run can be wrong by more than its own error, and independent runs disagree
+(docs/verification.md: the joint mirror model, log Z 911.4-917.2 over eight UltraNest runs). This module estimates
+the same integral another way. In the nested engine's unit-cube coordinates :math:`u` (the prior transform
+:math:`\\theta = T(u)`, so that the prior is uniform on :math:`[0, 1]^d`),
+
+.. math:: Z = \\int_{[0,1]^d} L(T(u))\\,du = \\mathbb E_q\\Big[\\frac{L(T(u))}{q(u)}\\Big],
+   \\qquad \\hat Z = \\frac1N \\sum_{i=1}^N w_i, \\quad w_i = \\frac{L(T(u_i))}{q(u_i)},\\ u_i \\sim q,
+
+unbiased for any proposal :math:`q` that is positive wherever :math:`L > 0` (Owen 2013, *Monte Carlo theory, methods
+and examples*, ch. 9). The proposal is a defensive mixture (Hesterberg 1995, Technometrics 37, 185)
+
+.. math:: q(u) = \\alpha + (1 - \\alpha)\\, m(z)\\prod_j \\frac{1}{u_j (1 - u_j)}, \\qquad z = \\operatorname{logit} u,
+
+the prior with share :math:`\\alpha` (so that :math:`q > 0` on the whole cube) and a Student-t mixture :math:`m` in
+logit coordinates (:func:`~bayestissue.inference.proposals.fit_t_mixture`: EM, scales widened by 1.5, 5 degrees of
+freedom) fitted to posterior draws (e.g. every nested run's, pooled: the union of what each run found). Adaptation
+rounds then move the mixture towards the posterior by weighted EM on the proposal's own draws (population Monte
+Carlo with a mixture proposal, Cappe, Douc, Guillin, Marin & Robert 2008, Stat. Comput. 18, 447: each round lowers
+the Kullback-Leibler divergence of the proposal from the posterior): with :math:`\\omega_i` the normalised weights
+and :math:`\\rho_{ik}` component :math:`k`'s responsibility for draw :math:`z_i` (Gaussian kernels of the fitted
+moments),
+
+.. math:: \\pi_k' = \\sum_i \\omega_i\\rho_{ik}, \\quad m_k' = \\frac{\\sum_i \\omega_i\\rho_{ik} z_i}{\\pi_k'}, \\quad
+   C_k' = \\frac{\\sum_i \\omega_i\\rho_{ik} (z_i - m_k')(z_i - m_k')^T}{\\pi_k'},
+
+each blended with the component's previous moments in proportion :math:`n_k / (n_k + n_0)` (:math:`n_k` the
+component's effective number of draws, :math:`n_0 = d + 2`), so that a component few draws inform keeps its shape.
+The weights point where the proposal lacks mass (on the joint mirror model: the slab of the posterior against
+gamma2's upper bound, which the logit stretches into a long tail), and the rounds move components there. The
+estimate uses only fresh draws of the last proposal, so it stays unbiased whatever the adaptation did.
+
+Its error: the draws are independent, so :math:`\\operatorname{Var}(\\hat Z)/Z^2 \\approx s_w^2 / (N \\bar w^2)`
+(delta method; :math:`s_w` the weights' sd). That estimate is only as good as the weights' tail: the Pareto
+:math:`\\hat k` of the largest weights (Vehtari et al. 2024, JMLR 25(72), "Pareto smoothed importance sampling",
+arviz's ``psislw``) says whether the variance exists in practice, :math:`\\hat k < 0.7` needed. And, as for nested
+runs, independent batches must agree with their own errors (:math:`\\chi^2` of their :math:`\\log\\hat Z` on
+:math:`B - 1` degrees of freedom, :math:`p \\ge 0.01`).
+
+What it cannot see: posterior mass where :math:`q` is negligible and where no draw falls (a mode no run found). Then
+:math:`\\hat Z` is low and every diagnostic may pass; with the weights bounded by the defensive term, such a region
+must hold less than about :math:`\\alpha^{-1} \\max_u L / (N Z)` of the evidence to stay unseen, which for a posterior
+a few tens of nats above its prior is no bound at all. So it is a second opinion on the regions the runs found, not
+a search for new ones: where it agrees with a nested run the run's compression was sound; where it is higher than a
+run by more than both errors, that run lost mass; where it is lower, either the run over-compressed or the proposal
+misses mass, and the Pareto :math:`\\hat k` and the batches are what tell.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import solve_triangular
+from scipy.special import expit, log_expit, logit, logsumexp
+from scipy.stats import chi2
+
+from bayestissue._validation import ValidationError
+from bayestissue.inference.diagnostics import import_arviz
+from bayestissue.inference.proposals import TMixture, fit_t_mixture
+
+__all__ = [
+    "ImportanceEvidence",
+    "ImportanceOptions",
+    "UnitProposal",
+    "fit_unit_proposal",
+    "importance_evidence",
+    "pooled_unit_draws",
+]
+
+#: Pareto k-hat above which the weights' variance is not trusted (Vehtari et al. 2024, section 3.2.4)
+K_HAT_MAX = 0.7
+#: the batches' log Z must agree with their own errors at this p-value (as nested runs', evidence.py)
+P_MIN = 0.01
+
+
+@dataclass(frozen=True)
+class ImportanceOptions:
+    """Settings of :func:`importance_evidence` (validated on construction).
+
+    n_draws : proposal draws of the estimate (the likelihood calls it costs, besides the adaptation's).
+    n_batches : independent batches the draws are split into, compared with their own errors (>= 2).
+    adapt_rounds, adapt_draws : rounds of weighted EM on the proposal's own draws before the estimate (module
+        docstring), and the draws of each.
+    n_components, widen, df : the Student-t mixture (:func:`~bayestissue.inference.proposals.fit_t_mixture`; the
+        components are reduced so that each has 20 d draws at least). The defaults are those measured on the joint
+        mirror model (analyses/evidence_check.py).
+    defensive : the prior's share :math:`\\alpha` of the proposal.
+    chunk : points per likelihood call (one batched forward solve) and per progress report.
+    """
+
+    n_draws: int = 100_000
+    n_batches: int = 4
+    adapt_rounds: int = 8
+    adapt_draws: int = 40_000
+    n_components: int = 48
+    widen: float = 1.5
+    df: float = 5.0
+    defensive: float = 0.05
+    chunk: int = 2000
+
+    def __post_init__(self):
+        for name, low in (("n_draws", 100), ("n_batches", 2), ("adapt_rounds", 0), ("adapt_draws", 100),
+                          ("n_components", 1), ("chunk", 1)):  # fmt: skip
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < low:
+                raise ValidationError(name, v, f"an integer >= {low}")
+        if self.n_draws < 50 * self.n_batches:
+            raise ValidationError("n_draws", self.n_draws, f"at least 50 per batch ({50 * self.n_batches})")
+        for name, ok, expected in (("widen", lambda v: 1.0 <= v <= 10.0, "a number in [1, 10]"),
+                                   ("df", lambda v: v >= 1.0, "a number >= 1"),
+                                   ("defensive", lambda v: 0.0 < v < 1.0, "a number in (0, 1)")):  # fmt: skip
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, float | int) or not ok(v):
+                raise ValidationError(name, v, expected)
+
+
+@dataclass(frozen=True)
+class UnitProposal:
+    """The defensive proposal on the unit cube (module docstring): the prior with share ``defensive`` and
+    ``mixture``, a :class:`~bayestissue.inference.proposals.TMixture` over :math:`z = \\operatorname{logit} u`."""
+
+    mixture: TMixture
+    defensive: float
+
+    @property
+    def ndim(self) -> int:
+        return self.mixture.ndim
+
+    def sample_logit(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` draws as :math:`z = \\operatorname{logit} u` ``(n, d)`` (the prior's share drawn uniformly)."""
+        from_prior = rng.random(n) < self.defensive
+        z = np.empty((n, self.ndim))
+        k = int(from_prior.sum())
+        z[from_prior] = logit(rng.random((k, self.ndim)))
+        z[~from_prior] = self.mixture.sample(n - k, np.random.RandomState(rng.integers(2**31 - 1)))
+        return z
+
+    def logpdf_logit(self, z) -> np.ndarray:
+        """:math:`\\log q(u)` at :math:`u = \\operatorname{expit} z` (a density on the unit cube, evaluated from
+        :math:`z` for accuracy near the faces: :math:`\\log u(1 - u) = \\log\\sigma(z) + \\log\\sigma(-z)`)."""
+        z = np.atleast_2d(np.asarray(z, dtype=float))
+        log_jac = np.sum(log_expit(z) + log_expit(-z), axis=1)
+        mix = np.log1p(-self.defensive) + self.mixture.logpdf(z) - log_jac
+        return np.logaddexp(np.log(self.defensive), mix)
+
+
+def fit_unit_proposal(unit_draws, options: ImportanceOptions = ImportanceOptions(), *, weights=None, seed: int = 0,
+                      rng=None) -> UnitProposal:  # fmt: skip
+    """The proposal fitted to draws in unit-cube coordinates ``(n, d)`` (equal weights, or ``weights`` summing to
+    one: then resampled, systematically, to as many equal-weight draws as Kish's effective sample size allows, at
+    most ``n``). Coordinates on a face of the cube are moved 1e-12 inside it."""
+    u = np.asarray(unit_draws, dtype=float)
+    if u.ndim != 2 or not np.all(np.isfinite(u)) or np.any((u < 0) | (u > 1)):
+        raise ValidationError("unit draws", f"array of shape {u.shape}", "finite values in [0, 1] of shape (n, d)")
+    if weights is not None:
+        w = np.asarray(weights, dtype=float)
+        n = int(min(u.shape[0], max(2 * (u.shape[1] + 1), 1.0 / np.sum(w**2))))
+        gen = np.random.default_rng(rng if rng is not None else seed)
+        idx = np.minimum(np.searchsorted(np.cumsum(w), (gen.random() + np.arange(n)) / n), w.size - 1)
+        u = u[idx]
+    z = logit(np.clip(u, 1e-12, 1 - 1e-12))
+    mix = fit_t_mixture(z, n_components=options.n_components, widen=options.widen, df=options.df, seed=seed)
+    return UnitProposal(mix, float(options.defensive))
+
+
+@dataclass
+class ImportanceEvidence:
+    """The estimate of :func:`importance_evidence`: ``log_z`` and its error (delta method over all draws), the
+    batches' own, the Pareto :math:`\\hat k` of the weights, their Kish effective sample size, the likelihood calls
+    (adaptation included) and failed solves, the seconds, and the weighted draws (``unit`` coordinates,
+    ``log_w`` normalised) for the posterior's quantiles."""
+
+    log_z: float
+    log_z_err: float
+    batch_log_z: np.ndarray
+    batch_err: np.ndarray
+    k_hat: float
+    ess: float
+    n_draws: int
+    n_calls: int
+    n_failed: int
+    time_s: float
+    adapt_log_z: list[float]
+    unit: np.ndarray = field(repr=False)
+    log_w: np.ndarray = field(repr=False)
+
+    @property
+    def batch_p(self) -> float:
+        """p-value of the batches' :math:`\\log\\hat Z` scatter against their own errors (:math:`\\chi^2`, B - 1 df)."""
+        v, e = self.batch_log_z, self.batch_err
+        mean = np.sum(v / e**2) / np.sum(1 / e**2)
+        return float(chi2.sf(np.sum((v - mean) ** 2 / e**2), v.size - 1))
+
+    @property
+    def trusted(self) -> bool:
+        """:math:`\\hat k <` :data:`K_HAT_MAX` and the batches agree (p >= :data:`P_MIN`)."""
+        return bool(self.k_hat < K_HAT_MAX and self.batch_p >= P_MIN)
+
+    def verdict(self) -> str:
+        """One line: TRUSTED, or NOT TRUSTED with the reasons."""
+        why = []
+        if not self.k_hat < K_HAT_MAX:
+            why.append(f"Pareto k-hat {self.k_hat:.2f} >= {K_HAT_MAX} (the weights' variance not finite in practice)")
+        if not self.batch_p >= P_MIN:
+            runs = ", ".join(f"{v:.2f}" for v in self.batch_log_z)
+            why.append(f"batches disagree beyond their own errors (log Z {runs}, p = {self.batch_p:.2g} < {P_MIN})")
+        head = (f"log Z {self.log_z:.3f} +- {self.log_z_err:.3f} by importance sampling ({self.n_draws} draws, ESS "
+                f"{self.ess:.0f}, k-hat {self.k_hat:.2f}, batches p = {self.batch_p:.2g})")  # fmt: skip
+        return head + (": TRUSTED" if not why else ": NOT TRUSTED: " + "; ".join(why))
+
+
+def _weighted_em(mixture: TMixture, z: np.ndarray, w: np.ndarray, widen: float) -> TMixture:
+    """One adaptation round (module docstring): weighted EM of the mixture's Gaussian moments (its scales over
+    ``widen**2``) on draws ``z`` ``(n, d)`` with normalised weights ``w``, blended with the old moments by each
+    component's effective number of draws, then widened again."""
+    n, d = z.shape
+    covs = mixture.covs / widen**2
+    log_r = np.empty((len(mixture.weights), n))
+    for k, (pk, m, c) in enumerate(zip(mixture.weights, mixture.means, covs, strict=True)):
+        chol = np.linalg.cholesky(c)
+        r = solve_triangular(chol, (z - m).T, lower=True)
+        log_r[k] = np.log(pk) - np.log(np.diagonal(chol)).sum() - 0.5 * np.sum(r * r, axis=0)
+    a = np.exp(log_r - logsumexp(log_r, axis=0)) * w  # (K, n): weight times responsibility
+    mass = a.sum(axis=1)
+    # a component with (almost) none of the weight keeps its moments: n_k = 1 / sum((a / mass)^2), which for a mass
+    # near the smallest floats is 0 / 0 if written mass^2 / sum(a^2)
+    informed = mass > 1e-12
+    safe = np.where(informed, mass, 1.0)
+    n_k = np.where(informed, 1.0 / np.sum((a / safe[:, None]) ** 2, axis=1), 0.0)
+    lam = n_k / (n_k + d + 2.0)
+    means_new = (a @ z) / safe[:, None]
+    means = lam[:, None] * means_new + (1 - lam[:, None]) * mixture.means
+    dev = z[None, :, :] - means[:, None, :]
+    covs_new = np.einsum("kn,kni,knj->kij", a, dev, dev) / safe[:, None, None]
+    scale = np.mean(np.diagonal(covs, axis1=1, axis2=2))
+    covs = lam[:, None, None] * covs_new + (1 - lam[:, None, None]) * covs + 1e-10 * scale * np.eye(d)
+    weights = np.maximum(mass, 1e-3 / mass.size)
+    return TMixture(weights / weights.sum(), means, covs * widen**2, mixture.df)
+
+
+def _log_weights(log_l_unit, proposal, n, rng, chunk, progress, stage) -> tuple[np.ndarray, np.ndarray, int]:
+    """``n`` proposal draws (logit coordinates) and their log-weights :math:`\\log L - \\log q`; failed solves
+    (non-finite log-likelihood) have weight 0 and are counted."""
+    z = proposal.sample_logit(n, rng)
+    log_w = np.empty(n)
+    failed = 0
+    for start in range(0, n, chunk):
+        zs = z[start : start + chunk]
+        ll = np.asarray(log_l_unit(expit(zs)), dtype=float)
+        bad = ~np.isfinite(ll)
+        failed += int(bad.sum())
+        log_w[start : start + chunk] = np.where(bad, -np.inf, ll) - proposal.logpdf_logit(zs)
+        if progress is not None:
+            progress(stage, min(start + chunk, n), n)
+    return z, log_w, failed
+
+
+def _log_mean(log_w) -> tuple[float, float]:
+    """:math:`\\log \\bar w` and its delta-method error :math:`s_w / (\\sqrt N \\bar w)`."""
+    n = log_w.size
+    log_mean = float(logsumexp(log_w) - np.log(n))
+    rel = np.exp(log_w - log_mean)  # w / mean(w)
+    return log_mean, float(np.sqrt(np.var(rel, ddof=1) / n))
+
+
+def importance_evidence(
+    log_l_unit: Callable[[np.ndarray], np.ndarray],
+    proposal: UnitProposal,
+    options: ImportanceOptions = ImportanceOptions(),
+    *,
+    rng=None,
+    progress: Callable | None = None,
+) -> ImportanceEvidence:
+    """:math:`\\log Z` of ``log_l_unit`` (the log-likelihood of unit-cube points ``(n, d)``, batched) by importance
+    sampling from ``proposal`` after ``options.adapt_rounds`` refits (module docstring). ``progress(stage, done,
+    total)`` after every chunk, ``stage`` ``"adapt 1"``, ... or ``"estimate"``."""
+    rng = np.random.default_rng(rng)
+    t0 = time.perf_counter()
+    calls = failed = 0
+    adapt_log_z = []
+    for r in range(options.adapt_rounds):
+        z, log_w, f = _log_weights(log_l_unit, proposal, options.adapt_draws, rng, options.chunk, progress,
+                                   f"adapt {r + 1}")  # fmt: skip
+        calls, failed = calls + z.shape[0], failed + f
+        adapt_log_z.append(_log_mean(log_w)[0])
+        if not np.any(np.isfinite(log_w)):
+            raise ValidationError("importance proposal", "every draw failed or has zero likelihood",
+                                  "a proposal that reaches the posterior")  # fmt: skip
+        w = np.exp(log_w - logsumexp(log_w))
+        proposal = UnitProposal(_weighted_em(proposal.mixture, z, w, options.widen), proposal.defensive)
+    z, log_w, f = _log_weights(log_l_unit, proposal, options.n_draws, rng, options.chunk, progress, "estimate")
+    calls, failed = calls + z.shape[0], failed + f
+    log_z, err = _log_mean(log_w)
+    batches = np.array_split(np.arange(options.n_draws), options.n_batches)
+    b = np.array([_log_mean(log_w[i]) for i in batches])
+    finite = log_w[np.isfinite(log_w)]
+    az = import_arviz()
+    _, k_hat = az.psislw(finite - finite.max())
+    log_w_norm = log_w - logsumexp(log_w)
+    return ImportanceEvidence(
+        log_z=log_z,
+        log_z_err=err,
+        batch_log_z=b[:, 0],
+        batch_err=b[:, 1],
+        k_hat=float(k_hat),
+        ess=float(1.0 / np.sum(np.exp(2 * log_w_norm))),
+        n_draws=int(options.n_draws),
+        n_calls=int(calls),
+        n_failed=int(failed),
+        time_s=time.perf_counter() - t0,
+        adapt_log_z=adapt_log_z,
+        unit=expit(z),
+        log_w=log_w_norm,
+    )
+
+
+def pooled_unit_draws(sample) -> tuple[np.ndarray, np.ndarray]:
+    """Every run's weighted points of a :class:`~bayestissue.inference.sampling.NestedSample`, pooled (each run
+    weighing ``1/n_runs``), as unit-cube coordinates of the sampled material parameters (what
+    :func:`~bayestissue.inference.sampling.nested.nested_target` samples with the noise sds integrated out) and their
+    weights, summing to one. With exchangeable parameter groups each point comes twice, once with the groups
+    swapped: the runs sample the whole box, where the likelihood holds both labellings, and so must the proposal."""
+    problem = sample.problem
+    n_mat = problem.n_material
+    u = problem.material.to_unit(np.concatenate([r.points[:, :n_mat] for r in sample.runs]))
+    w = np.concatenate([r.weights / len(sample.runs) for r in sample.runs])
+    if problem.exchangeable is not None:
+        a, b = problem.exchangeable
+        swapped = u.copy()
+        swapped[:, a], swapped[:, b] = u[:, b], u[:, a]
+        u, w = np.concatenate([u, swapped]), np.concatenate([w, w]) / 2.0
+    return np.clip(u, 0.0, 1.0), w / w.sum()

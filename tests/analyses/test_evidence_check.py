@@ -1,0 +1,85 @@
+"""The evidence-check stage (analyses/evidence_check.py, studies/evidence_check.py): its factors and their rule, the
+hash, the committed record read back, and the quick stage end to end."""
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from bayestissue.analyses.evidence_check import CheckCase, EvidenceCheckRecord, check_hash
+from bayestissue.analyses.records import FILES
+from bayestissue.io.records import read_record
+from tests.study_module import load_study
+
+ROOT = Path(__file__).resolve().parents[2]
+FIXTURE = ROOT / "tests" / "report" / "fixtures" / FILES[EvidenceCheckRecord]
+
+
+@pytest.fixture(scope="module")
+def record():
+    return read_record(FIXTURE, EvidenceCheckRecord)
+
+
+def _case(record, mirror, full, trusted=(True, True)):
+    t1 = record.cases["T1"]
+    checks = {m: dataclasses.replace(t1.checks[m], log_z=z, log_z_err=e, trusted=t)
+              for m, (z, e), t in zip(("mirror", "full"), (mirror, full), trusted, strict=True)}  # fmt: skip
+    return CheckCase(data="T1", checks=checks)
+
+
+def test_the_factor_decides_only_between_trusted_estimates_of_a_positive_grade(record):
+    case = _case(record, (10.0, 0.3), (7.0, 0.4))
+    f = case.factor("mirror", "full")
+    assert (f["log_b"], f["err"]) == pytest.approx((3.0, 0.5))
+    assert f["favours"] == "mirror" and f["grade"] == "strong" and f["decides"] and f["trusted"]
+    assert not _case(record, (10.0, 0.3), (7.0, 0.4), trusted=(True, False)).factor("mirror", "full")["decides"]
+    within = _case(record, (10.0, 0.3), (9.2, 0.4)).factor("mirror", "full")  # 0.8 +- 0.5: within error
+    assert within["grade"] == "within error" and not within["decides"]
+    assert _case(record, (7.0, 0.3), (10.0, 0.4)).factor("mirror", "full")["favours"] == "full"
+    assert case.factors_run == (("mirror", "full"),)
+    assert CheckCase(data="T1", checks={"mirror": case.checks["mirror"]}).factors_run == ()
+
+
+def test_the_hash_follows_the_data_the_model_and_the_mode(tmp_path):
+    data = ROOT / "data"
+    base = check_hash("full", data, "T1", "mirror")
+    assert base == check_hash("full", data, "T1", "mirror")
+    assert base != check_hash("full", data, "T1", "full")
+    assert base != check_hash("quick", data, "T1", "mirror")
+    for f in ("T1.toml", "T1.csv"):
+        (tmp_path / f).write_bytes((data / f).read_bytes())
+    assert check_hash("full", tmp_path, "T1", "mirror") == base
+    (tmp_path / "T1.csv").write_bytes((data / "T1.csv").read_bytes() + b"\n")
+    assert check_hash("full", tmp_path, "T1", "mirror") != base
+
+
+def test_the_default_study_reads_the_committed_record_back_and_names_stale_checks(tmp_path, capsys):
+    stage = load_study("evidence_check")
+    rec = read_record(FIXTURE, EvidenceCheckRecord)
+    path = tmp_path / FILES[EvidenceCheckRecord]
+    path.write_bytes(FIXTURE.read_bytes())
+    assert stage.main(["--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    n = sum(len(c.checks) for c in rec.cases.values())
+    assert out.count("STALE") == n  # the fixture's hashes are no code's
+    assert "rerun: python studies/evidence_check.py --full --data joint" in out
+    assert (tmp_path / "evidence_check.md").is_file() and (tmp_path / "evidence_check.png").is_file()
+    assert stage.main(["--out", str(tmp_path / "none")]) == 0
+    assert "not found: the default study reads the committed --full record" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, capsys):
+    """--quick (capped nautilus runs, 2 000 draws; its numbers mean nothing) writes a record whose checks carry the
+    current hash; a second run keeps them instead of rerunning, and the read-back calls them current."""
+    stage = load_study("evidence_check")
+    assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
+    rec = read_record(tmp_path / FILES[EvidenceCheckRecord], EvidenceCheckRecord)
+    assert rec.mode == "quick" and list(rec.cases) == ["T1"] and list(rec.cases["T1"].checks) == ["mirror", "full"]
+    for model, c in rec.cases["T1"].checks.items():
+        assert c.numbers_hash == check_hash("quick", ROOT / "data", "T1", model)
+        assert c.n_draws == 2000 and c.calls == 3000 and len(c.quantiles) == len(c.names)
+    capsys.readouterr()
+    assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
+    assert capsys.readouterr().out.count("matches the current code") == 2
+    assert read_record(tmp_path / FILES[EvidenceCheckRecord], EvidenceCheckRecord) == rec
