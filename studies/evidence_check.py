@@ -14,7 +14,6 @@ the current code. ``--quick`` is a capped smoke run on T1 into its own folder.
 
 from __future__ import annotations
 
-import argparse
 import os
 from pathlib import Path
 
@@ -34,6 +33,7 @@ from bayestissue.analyses.evidence_check import (  # noqa: E402
 )
 from bayestissue.analyses.model_choice import CANDIDATES, DATASETS, ModelChoiceRecord  # noqa: E402
 from bayestissue.analyses.records import FILES  # noqa: E402
+from bayestissue.cli import stage_parser  # noqa: E402
 from bayestissue.inference.sampling.processes import run_in_processes  # noqa: E402
 from bayestissue.io.records import read_record, write_record  # noqa: E402
 from bayestissue.plotting.evidence_check import plot_evidence_check  # noqa: E402
@@ -119,11 +119,9 @@ def _read_back(path: Path) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    mode = ap.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", help="capped smoke run on T1")
-    mode.add_argument("--full", action="store_true", help="compute the record (2-10 min of one core a model)")
-    ap.add_argument("--out", type=Path, default=ROOT / "figures")
+    ap = stage_parser(
+        __doc__, "capped smoke run on T1", "compute the record (2-10 min of one core a model)", ROOT / "figures"
+    )
     ap.add_argument("--data", nargs="+", choices=DATASETS, help="data sets to check (default: all; --quick T1)")
     args = ap.parse_args(argv)
     path = args.out / FILES[EvidenceCheckRecord]

@@ -16,7 +16,6 @@ into its own folder.
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 from pathlib import Path
@@ -44,7 +43,7 @@ from bayestissue.analyses.model_choice import (  # noqa: E402
     rerun_command,
 )
 from bayestissue.analyses.records import FILES  # noqa: E402
-from bayestissue.cli import run_lines  # noqa: E402
+from bayestissue.cli import run_lines, stage_parser  # noqa: E402
 from bayestissue.inference import NestedOptions, fit_least_squares, fit_multistart, sample_nested  # noqa: E402
 from bayestissue.inference.evidence import assess_nested  # noqa: E402
 from bayestissue.inference.sampling.nested import nested_target  # noqa: E402
@@ -175,11 +174,9 @@ def _read_back(path: Path) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    mode = ap.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", help="capped smoke run")
-    mode.add_argument("--full", action="store_true", help="compute the record (47-71 min of both cores a test)")
-    ap.add_argument("--out", type=Path, default=ROOT / "figures")
+    ap = stage_parser(
+        __doc__, "capped smoke run", "compute the record (47-71 min of both cores a test)", ROOT / "figures"
+    )
     ap.add_argument("--data", nargs="+", choices=DATASETS, help="data sets to run (default: all; --quick T1)")
     ap.add_argument("--models", nargs="+", choices=sorted({m for c in CANDIDATES.values() for m in c}),
                     help="models to run on each data set (default: all of its candidates; the others keep the "

@@ -15,7 +15,6 @@ still belong to the current code. ``--quick`` is a capped smoke run of one and t
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 from pathlib import Path
@@ -41,7 +40,7 @@ from bayestissue.analyses.branch_count import (  # noqa: E402
 )
 from bayestissue.analyses.model_choice import model_evidence  # noqa: E402
 from bayestissue.analyses.records import FILES  # noqa: E402
-from bayestissue.cli import run_lines  # noqa: E402
+from bayestissue.cli import run_lines, stage_parser  # noqa: E402
 from bayestissue.io.records import read_record, write_record  # noqa: E402
 from bayestissue.mechanics import load_experiment  # noqa: E402
 from bayestissue.plotting.branch_count import plot_branch_count  # noqa: E402
@@ -151,11 +150,12 @@ def _read_back(path: Path) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    mode = ap.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", help="capped smoke run of one and two branches")
-    mode.add_argument("--full", action="store_true", help="compute the record (about an hour of both cores)")
-    ap.add_argument("--out", type=Path, default=ROOT / "figures")
+    ap = stage_parser(
+        __doc__,
+        "capped smoke run of one and two branches",
+        "compute the record (about an hour of both cores)",
+        ROOT / "figures",
+    )
     ap.add_argument("--branches", nargs="+", type=int, choices=BRANCHES, help="counts to (re)run (default: all)")
     args = ap.parse_args(argv)
     path = args.out / FILES[BranchCountRecord]

@@ -15,10 +15,11 @@ import importlib
 import logging
 import sys
 import time
+from pathlib import Path
 
 from bayestissue import __version__
 
-__all__ = ["main", "build_parser", "plain", "progress_bar", "run_lines", "seed"]
+__all__ = ["main", "build_parser", "plain", "progress_bar", "run_lines", "seed", "stage_parser"]
 
 #: Sub-command modules, in the order ``--help`` lists them.
 _COMMANDS = ("simulate", "fit", "hierarchy", "importer", "stereology", "micrographs")
@@ -66,6 +67,18 @@ def run_lines(label: str, seconds: float = 60.0):
             print(f"{label} run {run}: {n_evaluations} calls, log Z so far {log_z:.3f}", flush=True)
 
     return report
+
+
+def stage_parser(doc: str, quick: str, full: str, out) -> argparse.ArgumentParser:
+    """The parser a ``--full`` study stage starts from (studies/full_model.py, evidence_check.py,
+    tendon_branches.py): ``--quick`` or ``--full`` (help texts ``quick``, ``full``; neither: read the committed
+    record back) and ``--out`` (default ``out``); its description is ``doc``'s first line."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--quick", action="store_true", help=quick)
+    mode.add_argument("--full", action="store_true", help=full)
+    ap.add_argument("--out", type=Path, default=out)
+    return ap
 
 
 def build_parser() -> argparse.ArgumentParser:

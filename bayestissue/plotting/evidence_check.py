@@ -29,7 +29,7 @@ def _panel(ax, case, nested) -> None:
         ax.annotate(f"{c.log_z:.2f} +- {c.log_z_err:.2f}\nk-hat {c.k_hat:.2f}{mark}", (i + 0.28, c.log_z),
                     fontsize=FONT["legend"] - 1, va="center")  # fmt: skip
     ax.set_xticks(range(len(case.checks)), list(case.checks))
-    ax.set_xlim(-0.5, len(case.checks) - 0.1)
+    ax.set_xlim(-0.5, len(case.checks) + 0.2)  # room for the last label
     title = [f"{case.data}"] + [f"ln B {f['a']} over {f['b']} = {f['log_b']:.2f} +- {f['err']:.2f}"
                                 for f in (case.factor(a, b) for a, b in case.factors_run)]  # fmt: skip
     ax.set_title("\n".join(title), fontsize=FONT["title"])
