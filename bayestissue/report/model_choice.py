@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
+from bayestissue.analyses.evidence_check import PROPOSAL_ERROR
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord, rerun_command
 from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import (
@@ -172,4 +173,4 @@ def model_choice_context(
         f"{d} {m}" for d, c in check.cases.items() for m, e in c.checks.items()
         if check_now.get(d, {}).get(m) != e.numbers_hash]  # fmt: skip
     return {"record": rec, "cases": cases, "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR,
-            "check": check, "check_stale": stale}  # fmt: skip
+            "check": check, "check_stale": stale, "proposal_error": PROPOSAL_ERROR}  # fmt: skip

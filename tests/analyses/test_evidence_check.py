@@ -4,9 +4,10 @@ hash, the committed record read back, and the quick stage end to end."""
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from bayestissue.analyses.evidence_check import CheckCase, EvidenceCheckRecord, check_hash
+from bayestissue.analyses.evidence_check import PROPOSAL_ERROR, CheckCase, EvidenceCheckRecord, check_hash
 from bayestissue.analyses.records import FILES
 from bayestissue.io.records import read_record
 from tests.study_module import load_study
@@ -30,10 +31,11 @@ def _case(record, mirror, full, trusted=(True, True)):
 def test_the_factor_decides_only_between_trusted_estimates_of_a_positive_grade(record):
     case = _case(record, (10.0, 0.3), (7.0, 0.4))
     f = case.factor("mirror", "full")
-    assert (f["log_b"], f["err"]) == pytest.approx((3.0, 0.5))
+    # the error: both delta-method errors and PROPOSAL_ERROR for each evidence, in quadrature
+    assert (f["log_b"], f["err"]) == pytest.approx((3.0, np.sqrt(0.3**2 + 0.4**2 + 2 * PROPOSAL_ERROR**2)))
     assert f["favours"] == "mirror" and f["grade"] == "strong" and f["decides"] and f["trusted"]
     assert not _case(record, (10.0, 0.3), (7.0, 0.4), trusted=(True, False)).factor("mirror", "full")["decides"]
-    within = _case(record, (10.0, 0.3), (9.2, 0.4)).factor("mirror", "full")  # 0.8 +- 0.5: within error
+    within = _case(record, (10.0, 0.3), (8.7, 0.4)).factor("mirror", "full")  # 1.3 +- 0.70: within error
     assert within["grade"] == "within error" and not within["decides"]
     assert _case(record, (7.0, 0.3), (10.0, 0.4)).factor("mirror", "full")["favours"] == "full"
     assert case.factors_run == (("mirror", "full"),)
