@@ -28,6 +28,7 @@ from bayestissue.analyses.evidence_check import (  # noqa: E402
     CheckCase,
     DataProblems,
     EvidenceCheckRecord,
+    cached_check,
     check_hash,
     check_task,
 )
@@ -39,22 +40,26 @@ from bayestissue.io.records import read_record, write_record  # noqa: E402
 from bayestissue.plotting.evidence_check import plot_evidence_check  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
+#: Each finished check is written here at once (analyses.evidence_check.cached_check), so that a killed stage loses
+#: no model it had finished.
+CACHE = ROOT / ".cache" / "evidence_check"
 
 
 def _case(mode: str, data: str, old: CheckCase | None, save) -> CheckCase:
-    """The checks of ``data``'s models: a model whose committed check matches the current code is kept; the others
-    run, two processes at a time."""
+    """The checks of ``data``'s models: a model whose committed (or cached, :data:`CACHE`) check matches the current
+    code is kept; the others run, two processes at a time."""
     checks, todo = {}, []
     for k, model in enumerate(CANDIDATES[data]):
         key = check_hash(mode, ROOT / "data", data, model)
         kept = old.checks.get(model) if old is not None else None
-        if kept is not None and kept.numbers_hash == key:
+        kept = kept if kept is not None and kept.numbers_hash == key else cached_check(CACHE, mode, data, model, key)
+        if kept is not None:
             print(f"[evidence check] {data}, {model} model: kept ({key}, matches the current code)", flush=True)
             checks[model] = kept
         else:
             todo.append((model, CHECK_SEED + 10 * DATASETS.index(data) + k))
     if todo:
-        problems = DataProblems(ROOT / "data", data, [m for m, _ in todo])
+        problems = DataProblems(ROOT / "data", data, [m for m, _ in todo], cache=CACHE)
         args = [(m, mode, s) for m, s in todo]
         results = run_in_processes(problems, check_task, args, min(2, os.cpu_count() or 1),
                                    lambda line: print(f"[evidence check] {line}", flush=True))  # fmt: skip

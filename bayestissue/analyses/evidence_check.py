@@ -46,6 +46,7 @@ from bayestissue.inference.sampling.importance import (
     pooled_unit_draws,
 )
 from bayestissue.inference.sampling.nested import nested_target
+from bayestissue.io.records import read_record, write_record
 
 __all__ = [
     "CHECK_SEED",
@@ -55,6 +56,7 @@ __all__ = [
     "DataProblems",
     "EvidenceCheck",
     "EvidenceCheckRecord",
+    "cached_check",
     "check_hash",
     "check_model",
     "check_task",
@@ -207,17 +209,38 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
 
 class DataProblems:
     """The calibration problems of one data set's ``models`` by name (:func:`~.model_choice.model_problem`), handed
-    to forked workers as one object (:func:`check_task`)."""
+    to forked workers as one object (:func:`check_task`); ``cache`` the folder each finished check is written to
+    (:func:`cached_check`), None for none."""
 
-    def __init__(self, data_dir: Path, data: str, models):
-        self.data_dir, self.data = Path(data_dir), data
+    def __init__(self, data_dir: Path, data: str, models, cache: Path | None = None):
+        self.data_dir, self.data, self.cache = Path(data_dir), data, cache
         self.by_model = {m: model_problem(self.data_dir, data, m) for m in models}
 
 
+def _cache_path(cache: Path, mode: str, data: str, model: str, key: str) -> Path:
+    return Path(cache) / f"{mode}_{data}_{model}_{key}.json"
+
+
+def cached_check(cache: Path | None, mode: str, data: str, model: str, key: str) -> EvidenceCheck | None:
+    """The check of ``model`` on ``data`` that an earlier (perhaps killed) stage finished under the hash ``key``, or
+    None: a stage that is killed loses no model it had finished, and a check of other code is never taken."""
+    if cache is None or not _cache_path(cache, mode, data, model, key).is_file():
+        return None
+    rec = read_record(_cache_path(cache, mode, data, model, key), EvidenceCheckRecord)
+    found = rec.cases[data].checks[model]
+    return found if found.numbers_hash == key else None
+
+
 def check_task(problems: DataProblems, model: str, mode: str, seed: int, progress) -> EvidenceCheck | str:
-    """A worker's task (:func:`~bayestissue.inference.sampling.processes.run_in_processes`): one model's check, or
-    the one-line error that stopped it (so that one model's failure does not lose the others' work)."""
+    """A worker's task (:func:`~bayestissue.inference.sampling.processes.run_in_processes`): one model's check, written
+    to the cache as soon as it is done, or the one-line error that stopped it (so that one model's failure does not
+    lose the others' work)."""
     try:
-        return check_model(problems.by_model[model], problems.data_dir, problems.data, model, mode, seed, progress)
+        check = check_model(problems.by_model[model], problems.data_dir, problems.data, model, mode, seed, progress)
     except Exception as err:  # noqa: BLE001 -- reported by the stage, which records the models that finished
         return f"{type(err).__name__}: {err}"
+    if problems.cache is not None:
+        Path(problems.cache).mkdir(parents=True, exist_ok=True)
+        one = EvidenceCheckRecord(mode=mode, cases={problems.data: CheckCase(problems.data, {model: check})})
+        write_record(_cache_path(problems.cache, mode, problems.data, model, check.numbers_hash), one)
+    return check

@@ -7,7 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayestissue.analyses.evidence_check import PROPOSAL_ERROR, CheckCase, EvidenceCheckRecord, check_hash
+from bayestissue.analyses.evidence_check import (
+    PROPOSAL_ERROR,
+    CheckCase,
+    EvidenceCheckRecord,
+    cached_check,
+    check_hash,
+)
 from bayestissue.analyses.records import FILES
 from bayestissue.io.records import read_record
 from tests.study_module import load_study
@@ -73,8 +79,10 @@ def test_the_default_study_reads_the_committed_record_back_and_names_stale_check
 @pytest.mark.slow
 def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, capsys):
     """--quick (capped nautilus runs, 2 000 draws; its numbers mean nothing) writes a record whose checks carry the
-    current hash; a second run keeps them instead of rerunning, and the read-back calls them current."""
+    current hash; a second run keeps them instead of rerunning; with the record gone (a stage killed before it wrote
+    it) the checks each model wrote to the cache when it finished are kept; a cached check of another hash is not."""
     stage = load_study("evidence_check")
+    stage.CACHE = tmp_path / "cache"
     assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
     rec = read_record(tmp_path / FILES[EvidenceCheckRecord], EvidenceCheckRecord)
     assert rec.mode == "quick" and list(rec.cases) == ["T1"] and list(rec.cases["T1"].checks) == ["mirror", "full"]
@@ -85,3 +93,10 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
     assert capsys.readouterr().out.count("matches the current code") == 2
     assert read_record(tmp_path / FILES[EvidenceCheckRecord], EvidenceCheckRecord) == rec
+    (tmp_path / FILES[EvidenceCheckRecord]).unlink()
+    assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
+    assert capsys.readouterr().out.count("kept") == 2
+    assert read_record(tmp_path / FILES[EvidenceCheckRecord], EvidenceCheckRecord) == rec
+    key = rec.cases["T1"].checks["full"].numbers_hash
+    assert cached_check(stage.CACHE, "quick", "T1", "full", key) == rec.cases["T1"].checks["full"]
+    assert cached_check(stage.CACHE, "quick", "T1", "full", "0" * 16) is None
