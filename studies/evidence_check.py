@@ -87,8 +87,9 @@ def _summary(rec: EvidenceCheckRecord, nested: ModelChoiceRecord | None) -> str:
                          f"{runs} | {c.numbers_hash} |")  # fmt: skip
         for a, b in case.factors_run:
             f = case.factor(a, b)
+            why = "decides" if f["decides"] else ("does not decide" if f["trusted"] else "not both trusted")
             lines.append(f"\nln B {a} over {b}: {f['log_b']:.2f} +- {f['err']:.2f} ({f['grade']} for {f['favours']}; "
-                         f"{'decides' if f['decides'] else 'does not decide'})")  # fmt: skip
+                         f"{why})")  # fmt: skip
         for model, c in case.checks.items():
             lines += ["", f"### {case.data}, {model}: {c.verdict}", "", "| parameter | 5 % | median | 95 % |",
                       "|---|---|---|---|"]  # fmt: skip

@@ -31,6 +31,7 @@ def _panel(ax, case, nested) -> None:
     ax.set_xticks(range(len(case.checks)), list(case.checks))
     ax.set_xlim(-0.5, len(case.checks) + 0.2)  # room for the last label
     title = [f"{case.data}"] + [f"ln B {f['a']} over {f['b']} = {f['log_b']:.2f} +- {f['err']:.2f}"
+                                + ("" if f["trusted"] else " (not both trusted)")
                                 for f in (case.factor(a, b) for a, b in case.factors_run)]  # fmt: skip
     ax.set_title("\n".join(title), fontsize=FONT["title"])
     ax.set_ylabel("log evidence", fontsize=FONT["label"])
@@ -42,7 +43,7 @@ def plot_evidence_check(rec, nested, path) -> None:
     the runs of ``nested`` (:class:`~bayestissue.analyses.model_choice.ModelChoiceRecord`, or None) where it has
     the model; saved to ``path``."""
     cases = rec.ordered()
-    fig, axes = plt.subplots(1, len(cases), figsize=(5.2 * len(cases), 4.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(cases), figsize=(max(5.2 * len(cases), 8.0), 4.8), squeeze=False)
     for ax, case in zip(axes[0], cases, strict=True):
         _panel(ax, case, nested.cases.get(case.data) if nested is not None else None)
     axes[0][0].legend(fontsize=FONT["legend"] - 1, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1)
