@@ -105,11 +105,10 @@ def _scale_quantiles(scale, check) -> list[float] | None:
     return None if scale is None else scale.quantile("scale")
 
 
-def _checked(case: DataChoice, check, a: str, b: str) -> dict:
-    """Factor ``(a, b)`` by both estimators: the nested runs' (None where a model has not run), the importance
-    sampling's (None without the check), the model the two choose
+def _checked(nested: dict | None, check, a: str, b: str) -> dict:
+    """Factor ``(a, b)`` by both estimators: the nested runs' (``nested``, :func:`_factor`; None where a model has not
+    run), the importance sampling's (None without the check), the model the two choose
     (:func:`~bayestissue.analyses.verdicts.evidence_choice`) and whether they are apart."""
-    nested = _factor(case, a, b) if {a, b} <= case.models.keys() else None
     checked = check.factor(a, b) if check is not None and {a, b} <= check.checks.keys() else None
     chosen, source = evidence_choice(nested, checked)
     apart = None if nested is None or checked is None else estimators_apart(
@@ -129,7 +128,7 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
     choice = run.get(first, {"decides": False})
     scale = case.models.get("scale")
     stale = None if now is None else [k for k, e in case.models.items() if now.get(k) != e.numbers_hash]
-    choices = [_checked(case, check, a, b) for a, b in case.factors]
+    choices = [_checked(run.get((a, b)), check, a, b) for a, b in case.factors]
     return {
         **choice,
         "ran": first in run,

@@ -81,17 +81,21 @@ def _two_mode_draws(problem, share_right, n, rng):
     return problem.material.to_unit(np.column_stack([x0, x1]))
 
 
+def _two_mode_estimate(problem, share_right, rng, seed):
+    """The estimate from a proposal fitted to 2000 :func:`_two_mode_draws` with ``share_right`` in the right mode."""
+    log_l_unit, _ = _unit_target(problem)
+    proposal = fit_unit_proposal(_two_mode_draws(problem, share_right, 2000, rng), SMALL)
+    return importance_evidence(log_l_unit, proposal, SMALL, rng=seed)
+
+
 def test_two_modes_weighed_right_from_draws_that_weigh_them_wrong():
     """Modes of exact masses 0.3 and 0.7, draws that hold them 50 / 50: the weights put 0.7 +- 0.02 on the right
     mode (the proposal's shares do not enter an importance-sampling estimate), and log Z agrees with the same
     estimate from draws in the right shares within 4 errors."""
     problem = lopsided_two_mode_problem(0.7)
-    log_l_unit, _ = _unit_target(problem)
     rng = np.random.default_rng(2)
-    even = importance_evidence(log_l_unit, fit_unit_proposal(_two_mode_draws(problem, 0.5, 2000, rng), SMALL), SMALL,
-                               rng=6)  # fmt: skip
-    fair = importance_evidence(log_l_unit, fit_unit_proposal(_two_mode_draws(problem, 0.7, 2000, rng), SMALL), SMALL,
-                               rng=7)  # fmt: skip
+    even = _two_mode_estimate(problem, 0.5, rng, 6)
+    fair = _two_mode_estimate(problem, 0.7, rng, 7)
     x0 = problem.material.from_prior_quantiles(even.unit)[:, 0]
     assert abs(np.exp(even.log_w)[x0 > 0].sum() - 0.7) < 0.02
     assert even.trusted and fair.trusted, (even.verdict(), fair.verdict())
@@ -102,12 +106,9 @@ def test_a_mode_the_draws_missed_is_missed_and_the_diagnostics_do_not_see_it():
     """The estimator's stated limit: draws of the right mode only (mass 0.7) give log Z low by ln(1/0.7) = 0.357
     (within 4 errors) and a TRUSTED verdict: it checks the regions it was given, it does not search."""
     problem = lopsided_two_mode_problem(0.7)
-    log_l_unit, _ = _unit_target(problem)
     rng = np.random.default_rng(3)
-    both = importance_evidence(log_l_unit, fit_unit_proposal(_two_mode_draws(problem, 0.7, 2000, rng), SMALL), SMALL,
-                               rng=8)  # fmt: skip
-    one = importance_evidence(log_l_unit, fit_unit_proposal(_two_mode_draws(problem, 1.0, 2000, rng), SMALL), SMALL,
-                              rng=8)  # fmt: skip
+    both = _two_mode_estimate(problem, 0.7, rng, 8)
+    one = _two_mode_estimate(problem, 1.0, rng, 8)
     assert one.trusted, one.verdict()
     assert abs((both.log_z - one.log_z) - np.log(1 / 0.7)) < 4 * np.hypot(both.log_z_err, one.log_z_err)
 
