@@ -13,7 +13,12 @@ from test_nested import _closed_form_log_z
 
 from bayestissue._validation import ValidationError
 from bayestissue.inference import NestedOptions
-from bayestissue.inference.sampling.importance import ImportanceOptions, fit_unit_proposal, importance_evidence
+from bayestissue.inference.sampling.importance import (
+    ImportanceOptions,
+    _adapted,
+    fit_unit_proposal,
+    importance_evidence,
+)
 from bayestissue.inference.sampling.nested import nested_target
 
 #: small runs: seconds each; tolerances are stated in the estimate's own errors
@@ -70,6 +75,45 @@ def test_a_proposal_fitted_off_the_posterior_is_still_unbiased_but_costs_draws(l
     assert plain.ess < 0.5 * good.ess
     assert adapted.ess > 2 * plain.ess
     assert abs(adapted.log_z - exact) < 4 * adapted.log_z_err
+
+
+@pytest.mark.parametrize(
+    "log_z, k_hat, stops",
+    [([1.0, 2.0, 3.0, 4.0, 5.0], [0.3] * 5, False),  # still rising
+     ([1.0, 3.0, 3.05, 2.9, 3.02], [0.3] * 5, True),  # three rounds within 0.1 of the best before them
+     ([1.0, 3.0, 3.05, 2.9, 3.2], [0.3] * 5, False),  # the last round rose by 0.2
+     ([1.0, 3.0, 3.05, 2.9, 3.02], [0.3] * 4 + [0.8], False),  # level, but the last proposal's tail is heavy
+     ([4.0, 3.0, 3.05, 2.9, 3.02], [0.3] * 5, True),  # below a first round of light tail: stops
+     ([4.0, 3.0, 3.05, 2.9, 3.02], [0.9] + [0.3] * 4, True),  # a heavy-tailed high first round sets no bar
+     ([4.0, 2.0, 3.05, 2.9, 3.02], [0.9] + [0.3] * 4, False),  # ... so the rise from round 2 counts
+     ([4.0, 3.0, 3.05], [0.9, 0.3, 0.3], False),  # no earlier light-tailed round to compare with
+     ([3.0, 3.0, 3.0], [0.3] * 3, False)],  # too few rounds to tell
+)  # fmt: skip
+def test_the_adaptation_stopping_rule(log_z, k_hat, stops):
+    assert _adapted(log_z, k_hat, ImportanceOptions(adapt_patience=3, adapt_tol=0.1)) is stops
+    assert _adapted(log_z, k_hat, ImportanceOptions(adapt_patience=0)) is False
+
+
+def test_adaptation_runs_until_its_estimate_stops_rising(linear):
+    """From draws 3 times too wide and 2 sd off, at most 25 rounds of 5 000 draws: the rounds stop once three of
+    them in a row add less than 0.05 nats (converged, before the 25th), each round's estimate and k-hat are kept,
+    the calls add up, and the final estimate is within 4 errors of the closed form. With ``adapt_patience`` 0 all 25
+    rounds run and the adaptation does not claim to have converged."""
+    problem, draws = linear
+    log_l_unit, to_unit = _unit_target(problem)
+    mean, _ = linear_gaussian_posterior(problem)
+    cov_sd = np.sqrt(np.diag(linear_gaussian_posterior(problem)[1]))
+    off = to_unit(mean + 2 * cov_sd + 3 * (draws - mean))
+    opts = ImportanceOptions(n_draws=20_000, adapt_rounds=25, adapt_draws=5_000, adapt_patience=3, adapt_tol=0.05)
+    res = importance_evidence(log_l_unit, fit_unit_proposal(off, opts), opts, rng=11)
+    rounds = len(res.adapt_log_z)
+    assert res.adapt_converged and 4 <= rounds < 25
+    assert len(res.adapt_k_hat) == rounds and res.adapt_k_hat[-1] < 0.7
+    assert res.n_calls == opts.n_draws + rounds * opts.adapt_draws
+    assert abs(res.log_z - _closed_form_log_z(problem, 20.0)) < 4 * res.log_z_err
+    every = ImportanceOptions(n_draws=20_000, adapt_rounds=25, adapt_draws=5_000, adapt_patience=0)
+    full = importance_evidence(log_l_unit, fit_unit_proposal(off, every), every, rng=11)
+    assert len(full.adapt_log_z) == 25 and not full.adapt_converged
 
 
 def _two_mode_draws(problem, share_right, n, rng):
@@ -158,7 +202,7 @@ def test_same_seed_same_result(linear):
     "kw, field",
     [({"n_draws": 10}, "n_draws"), ({"n_batches": 1}, "n_batches"), ({"defensive": 0.0}, "defensive"),
      ({"defensive": 1.0}, "defensive"), ({"widen": 0.5}, "widen"), ({"adapt_rounds": -1}, "adapt_rounds"),
-     ({"chunk": True}, "chunk")],
+     ({"chunk": True}, "chunk"), ({"adapt_patience": -1}, "adapt_patience"), ({"adapt_tol": 0.0}, "adapt_tol")],
 )  # fmt: skip
 def test_option_errors_name_the_field(kw, field):
     with pytest.raises(ValidationError, match=field):
