@@ -101,9 +101,8 @@ def test_adaptation_runs_until_its_estimate_stops_rising(linear):
     rounds run and the adaptation does not claim to have converged."""
     problem, draws = linear
     log_l_unit, to_unit = _unit_target(problem)
-    mean, _ = linear_gaussian_posterior(problem)
-    cov_sd = np.sqrt(np.diag(linear_gaussian_posterior(problem)[1]))
-    off = to_unit(mean + 2 * cov_sd + 3 * (draws - mean))
+    mean, cov = linear_gaussian_posterior(problem)
+    off = to_unit(mean + 2 * np.sqrt(np.diag(cov)) + 3 * (draws - mean))
     opts = ImportanceOptions(n_draws=20_000, adapt_rounds=25, adapt_draws=5_000, adapt_patience=3, adapt_tol=0.05)
     res = importance_evidence(log_l_unit, fit_unit_proposal(off, opts), opts, rng=11)
     rounds = len(res.adapt_log_z)
