@@ -15,6 +15,7 @@ the current code. ``--quick`` is a capped smoke run on T1 into its own folder.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -36,7 +37,7 @@ from bayestissue.analyses.model_choice import CANDIDATES, DATASETS, ModelChoiceR
 from bayestissue.analyses.records import FILES  # noqa: E402
 from bayestissue.cli import stage_parser  # noqa: E402
 from bayestissue.inference.sampling.processes import run_in_processes  # noqa: E402
-from bayestissue.io.records import read_record, write_record  # noqa: E402
+from bayestissue.io.records import RecordError, read_record, write_record  # noqa: E402
 from bayestissue.plotting.evidence_check import plot_evidence_check  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -91,8 +92,12 @@ def _summary(rec: EvidenceCheckRecord, nested: ModelChoiceRecord | None) -> str:
             lines.append(f"\nln B {a} over {b}: {f['log_b']:.2f} +- {f['err']:.2f} ({f['grade']} for {f['favours']}; "
                          f"{why})")  # fmt: skip
         for model, c in case.checks.items():
-            lines += ["", f"### {case.data}, {model}: {c.verdict}", "", "| parameter | 5 % | median | 95 % |",
-                      "|---|---|---|---|"]  # fmt: skip
+            lines += ["", f"### {case.data}, {model}: {c.verdict}", ""]
+            if c.swapped:
+                a, b = (", ".join(g) for g in c.swapped)
+                lines += [f"The proposal is symmetrised over the exchange of {a} with {b} (the likelihood's mirror "
+                          "symmetry); the quantiles are folded.", ""]  # fmt: skip
+            lines += ["| parameter | 5 % | median | 95 % |", "|---|---|---|---|"]
             lines += [f"| {n} | " + " | ".join(f"{v:.4g}" for v in q) + " |" for n, q in zip(c.names, c.quantiles,
                                                                                             strict=True)]  # fmt: skip
         lines.append("")
@@ -113,7 +118,11 @@ def _read_back(path: Path) -> int:
         print(f"[evidence check] {path} not found: the default study reads the committed --full record; compute it "
               "with `python studies/evidence_check.py --full`")  # fmt: skip
         return 0
-    rec = read_record(path, EvidenceCheckRecord)
+    try:
+        rec = read_record(path, EvidenceCheckRecord)
+    except RecordError as err:
+        print(f"[evidence check] {err}", file=sys.stderr)
+        return 2
     for case in rec.ordered():
         for model, c in case.checks.items():
             now = check_hash(rec.mode, ROOT / "data", case.data, model)
@@ -135,7 +144,11 @@ def main(argv=None) -> int:
         return _read_back(path)
     mode = "quick" if args.quick else "full"
     args.out.mkdir(parents=True, exist_ok=True)
-    old = read_record(path, EvidenceCheckRecord) if path.is_file() else None
+    try:
+        old = read_record(path, EvidenceCheckRecord) if path.is_file() else None
+    except RecordError as err:  # another version's record: none of its checks can be kept, the cache's can
+        print(f"[evidence check] {err}; its checks are not kept", flush=True)
+        old = None
     cases = dict(old.cases) if old is not None and old.mode == mode else {}
 
     def save(case: CheckCase) -> None:

@@ -13,6 +13,7 @@ from bayestissue.analyses.evidence_check import (
     EvidenceCheckRecord,
     cached_check,
     check_hash,
+    mirror_swap,
 )
 from bayestissue.analyses.records import FILES
 from bayestissue.io.records import read_record
@@ -76,6 +77,32 @@ def test_the_default_study_reads_the_committed_record_back_and_names_stale_check
     assert "not found: the default study reads the committed --full record" in capsys.readouterr().out
 
 
+def test_a_record_of_another_version_is_named_in_one_line_without_a_traceback(tmp_path, capsys):
+    """The default study on a record an older stage wrote: exit 2 and one line naming the file, the version found
+    and the one expected (the record's checks cannot be read, so nothing is redrawn)."""
+    stage = load_study("evidence_check")
+    text = FIXTURE.read_text().replace(f'"version": {EvidenceCheckRecord.VERSION}', '"version": 1', 1)
+    (tmp_path / FILES[EvidenceCheckRecord]).write_text(text)
+    assert stage.main(["--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "evidence_check_record.json version" in err
+    assert f"expected version {EvidenceCheckRecord.VERSION}" in err and "got 1" in err
+    assert not (tmp_path / "evidence_check.md").exists()
+
+
+FULL = ["mu", "kappa", "ginf1", "gamma1", "beta1", "ginf2", "gamma2", "beta2", "ginf3", "gamma3", "beta3"]
+
+
+def test_the_proposal_is_symmetrised_only_over_an_exchange_the_likelihood_keeps():
+    """Families 2 and 3 both sampled and a likelihood symmetric in them: their index groups; a likelihood that
+    changes by 1e-3 under the exchange, or a model that ties family 3 to family 2: none."""
+    u = np.random.default_rng(0).random((40, 11))
+    symmetric = lambda x: -np.sum((x[:, 5:8] - 0.3) ** 2 + (x[:, 8:11] - 0.3) ** 2, axis=1)  # noqa: E731
+    assert mirror_swap(FULL, symmetric, u) == ((5, 6, 7), (8, 9, 10))
+    assert mirror_swap(FULL, lambda x: symmetric(x) + 1e-3 * x[:, 5], u) is None
+    assert mirror_swap(FULL[:8], lambda x: symmetric(np.hstack([x, x[:, 5:8]])), u[:, :8]) is None
+
+
 @pytest.mark.slow
 def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, capsys):
     """--quick (capped nautilus runs, 2 000 draws; its numbers mean nothing) writes a record whose checks carry the
@@ -89,6 +116,9 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     for model, c in rec.cases["T1"].checks.items():
         assert c.numbers_hash == check_hash("quick", ROOT / "data", "T1", model)
         assert c.n_draws == 2000 and c.calls == 3000 and len(c.quantiles) == len(c.names)
+    # the full model's families 2 and 3 are mirror images: its proposal is symmetrised over their exchange
+    assert rec.cases["T1"].checks["full"].swapped == [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
+    assert rec.cases["T1"].checks["mirror"].swapped == []
     capsys.readouterr()
     assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
     assert capsys.readouterr().out.count("matches the current code") == 2

@@ -35,9 +35,11 @@ estimate uses only fresh draws of the last proposal, so it stays unbiased whatev
 
 How many rounds: a round's estimate from a proposal that still lacks mass somewhere is low (the missing mass sits in
 weights its draws rarely reach), so the rounds' estimates rise while the proposal improves and level off when it
-has converged. The adaptation stops when ``adapt_patience`` rounds in a row, each with Pareto :math:`\\hat k` below
-0.7, have not raised the best estimate of the earlier such rounds by more than ``adapt_tol``, or after
-``adapt_rounds`` (then ``adapt_converged`` is false). A fixed count is not enough: on the joint data set's scale
+has converged. The adaptation stops when the last ``adapt_patience`` rounds, each with Pareto :math:`\\hat k` below
+0.7, have a median estimate at most ``adapt_tol`` above the median of the ``adapt_patience`` rounds before them, or
+after ``adapt_rounds`` (then ``adapt_converged`` is false). Medians, because a single round can land high: with a
+heavy tail by one large weight, and with a light one by chance (the joint mirror model's round 6: 916.14, its
+converged rounds 915.5). A fixed count is not enough: on the joint data set's scale
 model 8 rounds left the estimate still climbing (890.1 -> 904.0 over the rounds, final k-hat 2.21), 24 rounds
 brought it to its plateau (918.8-919.1; final 918.86 +- 0.03, k-hat 0.32).
 
@@ -55,6 +57,20 @@ a few tens of nats above its prior is no bound at all. So it is a second opinion
 a search for new ones: where it agrees with a nested run the run's compression was sound; where it is higher than a
 run by more than both errors, that run lost mass; where it is lower, either the run over-compressed or the proposal
 misses mass, and the Pareto :math:`\\hat k` and the batches are what tell.
+
+A known symmetry of the likelihood is a mode no run needs to find. Where exchanging two parameter groups :math:`P`
+leaves :math:`L` unchanged (the full model's fibre families 2 and 3, mirror images about the loading axis) and the
+prior is the whole box, the posterior holds two mirror copies of equal mass, and a run that found one of them (the
+joint full model's nautilus run: 99.99 % of its weight at ginf2 > ginf3) gives a proposal that misses half the
+evidence, which only the defensive prior's rare draws reach, as huge weights. The proposal is then symmetrised,
+
+.. math:: m_P(z) = \\tfrac12\\big(m(z) + m(Pz)\\big),
+
+with :math:`m` fitted to the draws folded onto one copy (:math:`u_{a_0} \\ge u_{b_0}`), and each EM round fits the
+tied mixture of the :math:`2K` components :math:`(m_k, C_k)` and :math:`(Pm_k, PC_kP^T)`: the responsibilities are
+normalised over all :math:`2K`, and a draw's share in a mirrored component enters :math:`m_k, C_k` as the mirrored
+draw :math:`Pz_i` (EM for a mixture with tied parameters; :math:`P` a permutation, so
+:math:`N(z; Pm, PCP^T) = N(Pz; m, C)`).
 """
 
 from __future__ import annotations
@@ -79,6 +95,7 @@ __all__ = [
     "fit_unit_proposal",
     "importance_evidence",
     "pooled_unit_draws",
+    "swapped",
 ]
 
 #: Pareto k-hat above which the weights' variance is not trusted (Vehtari et al. 2024, section 3.2.4)
@@ -96,8 +113,9 @@ class ImportanceOptions:
     adapt_rounds, adapt_draws : at most this many rounds of weighted EM on the proposal's own draws before the
         estimate (module docstring), and the draws of each.
     adapt_patience, adapt_tol : the adaptation stops early once its last ``adapt_patience`` rounds, each with Pareto
-        :math:`\\hat k` below :data:`K_HAT_MAX`, have not raised the best estimate of :math:`\\log Z` of the earlier
-        such rounds by more than ``adapt_tol`` nats (module docstring; ``adapt_patience`` 0: every round runs).
+        :math:`\\hat k` below :data:`K_HAT_MAX`, have a median estimate of :math:`\\log Z` at most ``adapt_tol``
+        nats above the median of the ``adapt_patience`` rounds before them (module docstring; ``adapt_patience`` 0:
+        every round runs).
     n_components, widen, df : the Student-t mixture (:func:`~bayestissue.inference.proposals.fit_t_mixture`; the
         components are reduced so that each has 20 d draws at least). The defaults are those measured on the joint
         mirror model (analyses/evidence_check.py).
@@ -137,10 +155,13 @@ class ImportanceOptions:
 @dataclass(frozen=True)
 class UnitProposal:
     """The defensive proposal on the unit cube (module docstring): the prior with share ``defensive`` and
-    ``mixture``, a :class:`~bayestissue.inference.proposals.TMixture` over :math:`z = \\operatorname{logit} u`."""
+    ``mixture``, a :class:`~bayestissue.inference.proposals.TMixture` over :math:`z = \\operatorname{logit} u`,
+    symmetrised over ``swap`` (two index groups whose exchange leaves the likelihood unchanged; module docstring)
+    when given."""
 
     mixture: TMixture
     defensive: float
+    swap: tuple[tuple[int, ...], tuple[int, ...]] | None = None
 
     @property
     def ndim(self) -> int:
@@ -153,6 +174,9 @@ class UnitProposal:
         k = int(from_prior.sum())
         z[from_prior] = logit(rng.random((k, self.ndim)))
         z[~from_prior] = self.mixture.sample(n - k, np.random.RandomState(rng.integers(2**31 - 1)))
+        if self.swap is not None:
+            mirrored = ~from_prior & (rng.random(n) < 0.5)
+            z[mirrored] = swapped(z[mirrored], self.swap)
         return z
 
     def logpdf_logit(self, z) -> np.ndarray:
@@ -160,15 +184,28 @@ class UnitProposal:
         :math:`z` for accuracy near the faces: :math:`\\log u(1 - u) = \\log\\sigma(z) + \\log\\sigma(-z)`)."""
         z = np.atleast_2d(np.asarray(z, dtype=float))
         log_jac = np.sum(log_expit(z) + log_expit(-z), axis=1)
-        mix = np.log1p(-self.defensive) + self.mixture.logpdf(z) - log_jac
+        m = self.mixture.logpdf(z)
+        if self.swap is not None:
+            m = np.logaddexp(m, self.mixture.logpdf(swapped(z, self.swap))) - np.log(2.0)
+        mix = np.log1p(-self.defensive) + m - log_jac
         return np.logaddexp(np.log(self.defensive), mix)
 
 
+def swapped(x: np.ndarray, swap) -> np.ndarray:
+    """``x`` ``(n, d)`` with the column groups ``swap = (a, b)`` exchanged (the permutation :math:`P`)."""
+    a, b = (list(g) for g in swap)
+    out = np.array(x, dtype=float, copy=True)
+    out[:, a], out[:, b] = x[:, b], x[:, a]
+    return out
+
+
 def fit_unit_proposal(unit_draws, options: ImportanceOptions = ImportanceOptions(), *, weights=None, seed: int = 0,
-                      rng=None) -> UnitProposal:  # fmt: skip
+                      rng=None, swap=None) -> UnitProposal:  # fmt: skip
     """The proposal fitted to draws in unit-cube coordinates ``(n, d)`` (equal weights, or ``weights`` summing to
     one: then resampled, systematically, to as many equal-weight draws as Kish's effective sample size allows, at
-    most ``n``). Coordinates on a face of the cube are moved 1e-12 inside it."""
+    most ``n``). Coordinates on a face of the cube are moved 1e-12 inside it. With ``swap`` (two index groups of
+    equal length whose exchange leaves the likelihood unchanged) the draws are folded onto the copy
+    :math:`u_{a_0} \\ge u_{b_0}` and the proposal is symmetrised (module docstring)."""
     u = np.asarray(unit_draws, dtype=float)
     if u.ndim != 2 or not np.all(np.isfinite(u)) or np.any((u < 0) | (u > 1)):
         raise ValidationError("unit draws", f"array of shape {u.shape}", "finite values in [0, 1] of shape (n, d)")
@@ -178,9 +215,16 @@ def fit_unit_proposal(unit_draws, options: ImportanceOptions = ImportanceOptions
         gen = np.random.default_rng(rng if rng is not None else seed)
         idx = np.minimum(np.searchsorted(np.cumsum(w), (gen.random() + np.arange(n)) / n), w.size - 1)
         u = u[idx]
+    if swap is not None:
+        a, b = (tuple(int(i) for i in g) for g in swap)
+        if len(a) != len(b) or not a or set(a) & set(b) or not set(a + b) <= set(range(u.shape[1])):
+            raise ValidationError("swap", swap, f"two disjoint index groups of equal length in [0, {u.shape[1]})")
+        swap = (a, b)
+        fold = u[:, a[0]] < u[:, b[0]]
+        u = np.where(fold[:, None], swapped(u, swap), u)
     z = logit(np.clip(u, 1e-12, 1 - 1e-12))
     mix = fit_t_mixture(z, n_components=options.n_components, widen=options.widen, df=options.df, seed=seed)
-    return UnitProposal(mix, float(options.defensive))
+    return UnitProposal(mix, float(options.defensive), swap)
 
 
 @dataclass
@@ -189,8 +233,7 @@ class ImportanceEvidence:
     batches' own, the Pareto :math:`\\hat k` of the weights, their Kish effective sample size, the likelihood calls
     (adaptation included) and failed solves, the seconds, each adaptation round's :math:`\\log\\hat Z` and Pareto
     :math:`\\hat k`, whether the adaptation met its stopping rule (:class:`ImportanceOptions`) before its last
-    round, and the weighted draws (``unit`` coordinates,
-    ``log_w`` normalised) for the posterior's quantiles."""
+    round, and the weighted draws (``unit`` coordinates, ``log_w`` normalised) for the posterior's quantiles."""
 
     log_z: float
     log_z_err: float
@@ -229,24 +272,32 @@ class ImportanceEvidence:
             runs = ", ".join(f"{v:.2f}" for v in self.batch_log_z)
             why.append(f"batches disagree beyond their own errors (log Z {runs}, p = {self.batch_p:.2g} < {P_MIN})")
         rounds = len(self.adapt_log_z)
-        adapted = f"{rounds} adaptation rounds" + ("" if self.adapt_converged or rounds == 0 else ", still rising")
+        adapted = f"{rounds} adaptation rounds" + ("" if self.adapt_converged or rounds == 0 else ", not converged")
         head = (f"log Z {self.log_z:.3f} +- {self.log_z_err:.3f} by importance sampling ({adapted}; {self.n_draws} "
                 f"draws, ESS {self.ess:.0f}, k-hat {self.k_hat:.2f}, batches p = {self.batch_p:.2g})")  # fmt: skip
         return head + (": TRUSTED" if not why else ": NOT TRUSTED: " + "; ".join(why))
 
 
-def _weighted_em(mixture: TMixture, z: np.ndarray, w: np.ndarray, widen: float) -> TMixture:
+def _weighted_em(mixture: TMixture, z: np.ndarray, w: np.ndarray, widen: float, swap=None) -> TMixture:
     """One adaptation round (module docstring): weighted EM of the mixture's Gaussian moments (its scales over
     ``widen**2``) on draws ``z`` ``(n, d)`` with normalised weights ``w``, blended with the old moments by each
-    component's effective number of draws, then widened again."""
+    component's effective number of draws, then widened again. With ``swap`` the tied EM of the symmetrised
+    mixture: the draws and their mirror images, responsibilities normalised over each pair's :math:`2K`."""
     n, d = z.shape
+    if swap is not None:
+        z, w = np.concatenate([z, swapped(z, swap)]), np.concatenate([w, w])
     covs = mixture.covs / widen**2
-    log_r = np.empty((len(mixture.weights), n))
+    log_r = np.empty((len(mixture.weights), z.shape[0]))
     for k, (pk, m, c) in enumerate(zip(mixture.weights, mixture.means, covs, strict=True)):
         chol = np.linalg.cholesky(c)
         r = solve_triangular(chol, (z - m).T, lower=True)
         log_r[k] = np.log(pk) - np.log(np.diagonal(chol)).sum() - 0.5 * np.sum(r * r, axis=0)
-    a = np.exp(log_r - logsumexp(log_r, axis=0)) * w  # (K, n): weight times responsibility
+    norm = (
+        logsumexp(log_r, axis=0)
+        if swap is None
+        else np.tile(logsumexp(np.vstack([log_r[:, :n], log_r[:, n:]]), axis=0), 2)
+    )
+    a = np.exp(log_r - norm) * w  # (K, n or 2n): weight times responsibility
     mass = a.sum(axis=1)
     # a component with (almost) none of the weight keeps its moments: n_k = 1 / sum((a / mass)^2), which for a mass
     # near the smallest floats is 0 / 0 if written mass^2 / sum(a^2)
@@ -301,17 +352,16 @@ def _pareto_k(log_w) -> float:
 
 
 def _adapted(log_z: list[float], k_hat: list[float], options: ImportanceOptions) -> bool:
-    """The adaptation's stopping rule (:class:`ImportanceOptions`): the last ``adapt_patience`` rounds have
-    :math:`\\hat k <` :data:`K_HAT_MAX` and estimates within ``adapt_tol`` of the best earlier round's whose
-    :math:`\\hat k` was below it too, or below that. A round's estimate from a poor proposal is typically low (its
-    weights' mass sits in a tail its draws rarely reach), so a rising sequence says the proposal is still improving;
-    a round with a heavy tail can also land high by one large weight (the joint mirror model's first round: 917.2,
-    the converged rounds 915.5), so such rounds set no bar."""
+    """The adaptation's stopping rule (:class:`ImportanceOptions`, module docstring): the last ``p =
+    adapt_patience`` rounds have :math:`\\hat k <` :data:`K_HAT_MAX` and a median estimate at most ``adapt_tol``
+    above the median of the ``p`` rounds before them. A round's estimate from a poor proposal is typically low (its
+    weights' mass sits in a tail its draws rarely reach), so a rising median says the proposal is still improving;
+    the medians keep one round that landed high (by a large weight, or by chance) from ending the rounds early or
+    from setting a bar the next rounds cannot meet."""
     p = options.adapt_patience
-    if p == 0 or len(log_z) <= p or not all(k < K_HAT_MAX for k in k_hat[-p:]):
+    if p == 0 or len(log_z) < 2 * p or not all(k < K_HAT_MAX for k in k_hat[-p:]):
         return False
-    before = [z for z, k in zip(log_z[:-p], k_hat[:-p], strict=True) if k < K_HAT_MAX]
-    return bool(before) and max(log_z[-p:]) <= max(before) + options.adapt_tol
+    return bool(np.median(log_z[-p:]) <= np.median(log_z[-2 * p : -p]) + options.adapt_tol)
 
 
 def importance_evidence(
@@ -340,7 +390,8 @@ def importance_evidence(
         adapt_log_z.append(_log_mean(log_w)[0])
         adapt_k_hat.append(_pareto_k(log_w))
         w = np.exp(log_w - logsumexp(log_w))
-        proposal = UnitProposal(_weighted_em(proposal.mixture, z, w, options.widen), proposal.defensive)
+        mixture = _weighted_em(proposal.mixture, z, w, options.widen, proposal.swap)
+        proposal = UnitProposal(mixture, proposal.defensive, proposal.swap)
         if _adapted(adapt_log_z, adapt_k_hat, options):
             converged = True
             break
