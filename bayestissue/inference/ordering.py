@@ -25,12 +25,14 @@ from bayestissue._validation import ValidationError
 __all__ = [
     "OrderedGroup",
     "canonical",
+    "folded",
     "groups_in_force",
     "in_order",
     "order_index",
     "order_statistics",
     "relabelling",
     "sort_keys",
+    "swapped",
 ]
 
 
@@ -165,3 +167,20 @@ def canonical(theta: np.ndarray, index) -> np.ndarray:
     theta = np.asarray(theta, dtype=float)
     t2 = theta.reshape(-1, theta.shape[-1])
     return np.take_along_axis(t2, _permutations(t2, index), axis=1).reshape(theta.shape)
+
+
+def swapped(x: np.ndarray, swap) -> np.ndarray:
+    """``x`` ``(n, d)`` with the column groups ``swap = (a, b)`` exchanged: the permutation :math:`P` of two
+    exchangeable parameter groups (the full model's fibre families 2 and 3, mirror images about the loading axis)."""
+    a, b = (list(g) for g in swap)
+    out = np.array(x, dtype=float, copy=True)
+    out[:, a], out[:, b] = x[:, b], x[:, a]
+    return out
+
+
+def folded(x: np.ndarray, swap) -> np.ndarray:
+    """``x`` ``(n, d)`` folded onto one copy of the exchange ``swap = (a, b)``: the rows with
+    :math:`x_{a_0} < x_{b_0}` swapped (:func:`swapped`), so that the first group's leading parameter is not smaller
+    than the second's (ties left as they are)."""
+    x = np.asarray(x, dtype=float)
+    return np.where((x[:, swap[0][0]] < x[:, swap[1][0]])[:, None], swapped(x, swap), x)

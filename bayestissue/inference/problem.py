@@ -34,6 +34,7 @@ import numpy as np
 from bayestissue._validation import ValidationError
 from bayestissue.inference.coordinates import make_coordinates
 from bayestissue.inference.likelihood import GaussianNoise, NoiseModel, _tag
+from bayestissue.inference.ordering import folded
 from bayestissue.inference.parameters import ParameterSet
 
 __all__ = ["ExperimentTerm", "CalibrationProblem"]
@@ -280,18 +281,15 @@ class CalibrationProblem:
 
     def canonical(self, theta) -> np.ndarray:
         """Swap the exchangeable groups where needed so that the first group's leading parameter is
-        not smaller than the second's (identity without ``exchangeable``), and relabel the terms of the parameters'
+        not smaller than the second's (:func:`~bayestissue.inference.ordering.folded`; identity without
+        ``exchangeable``), and relabel the terms of the parameters'
         exchangeable ordered groups (:meth:`ParameterSet.canonical`)."""
         theta = np.array(theta, dtype=float, copy=True)
         if self.parameters.ordered:
             theta = self.parameters.canonical(theta)
         if self.exchangeable is None:
             return theta
-        t2 = np.atleast_2d(theta)
-        a, b = self.exchangeable
-        swap = t2[:, a[0]] < t2[:, b[0]]
-        t2[np.ix_(swap, a)], t2[np.ix_(swap, b)] = t2[np.ix_(swap, b)], t2[np.ix_(swap, a)]
-        return t2.reshape(theta.shape)
+        return folded(np.atleast_2d(theta), self.exchangeable).reshape(theta.shape)
 
     def _prior(self, theta) -> np.ndarray:
         lp = self.parameters.log_prior(theta)

@@ -38,14 +38,19 @@ def file_sha256(path: str | Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def source_files(parts: Iterable[str] | None = None, package: str | Path | None = None) -> list[Path]:
+def source_files(parts: Iterable[str] | None = None, package: str | Path | None = None,
+                 exclude: Iterable[str] = ()) -> list[Path]:  # fmt: skip
     """The package's source files: under each of ``parts`` (sub-packages or modules, relative to the package, in
-    the given order; each part's files sorted), or every one (sorted) when ``parts`` is None."""
+    the given order; each part's files sorted), or every one (sorted) when ``parts`` is None; without the files
+    ``exclude`` names (paths relative to the package, ``/``-separated)."""
     package = Path(__file__).resolve().parents[1] if package is None else Path(package)
     if parts is None:
-        return sorted(package.rglob("*.py"))
-    roots = [package / part for part in parts]
-    return [f for root in roots for f in (sorted(root.rglob("*.py")) if root.is_dir() else [root])]
+        files = sorted(package.rglob("*.py"))
+    else:
+        roots = [package / part for part in parts]
+        files = [f for root in roots for f in (sorted(root.rglob("*.py")) if root.is_dir() else [root])]
+    left_out = set(exclude)
+    return [f for f in files if f.relative_to(package).as_posix() not in left_out]
 
 
 #: The parts of the package a calibration's numbers come from: the mechanics, the samplers, the workflow that builds
@@ -63,11 +68,13 @@ def package_sha256(package: str | Path | None = None, parts: Iterable[str] | Non
     return hash_sources(hashlib.sha256(), parts, package).hexdigest()
 
 
-def hash_sources(h, parts: Iterable[str] | None = None, package: str | Path | None = None):
-    """Feed each of :func:`source_files` (``parts``; every file when None) to the hash object ``h`` as its path
-    relative to the package, a NUL, its bytes and a NUL; returns ``h`` (to go on with other inputs)."""
+def hash_sources(h, parts: Iterable[str] | None = None, package: str | Path | None = None,
+                 exclude: Iterable[str] = ()):  # fmt: skip
+    """Feed each of :func:`source_files` (``parts``, every file when None, without ``exclude``) to the hash object
+    ``h`` as its path relative to the package, a NUL, its bytes and a NUL; returns ``h`` (to go on with other
+    inputs)."""
     package = Path(__file__).resolve().parents[1] if package is None else Path(package)
-    for f in source_files(parts, package):
+    for f in source_files(parts, package, exclude):
         h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     return h
 

@@ -130,3 +130,23 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     key = rec.cases["T1"].checks["full"].numbers_hash
     assert cached_check(stage.CACHE, "quick", "T1", "full", key) == rec.cases["T1"].checks["full"]
     assert cached_check(stage.CACHE, "quick", "T1", "full", "0" * 16) is None
+    # the importance sampler changed (the checks' hashes with it, not the nautilus runs'): the checks rerun from the
+    # runs' cached draws, and give the same numbers
+    for f in stage.CACHE.glob("quick_T1_*.json"):
+        f.unlink()
+    (tmp_path / FILES[EvidenceCheckRecord]).unlink()
+    assert len(list(stage.CACHE.glob("proposal_quick_T1_*.npz"))) == 2
+    assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
+    assert capsys.readouterr().out.count("(read from the cache)") == 2
+    again = read_record(tmp_path / FILES[EvidenceCheckRecord], EvidenceCheckRecord).cases["T1"].checks
+    for model, c in rec.cases["T1"].checks.items():  # the same numbers; only the importance sampling's seconds differ
+        assert dataclasses.replace(again[model], time_s=c.time_s) == c
+    # --models: the model not named keeps the record's check, even a stale one, and says so; the named one is checked
+    path = tmp_path / FILES[EvidenceCheckRecord]
+    path.write_text(path.read_text().replace(again["full"].numbers_hash, "0" * 16))
+    capsys.readouterr()
+    assert stage.main(["--quick", "--models", "mirror", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "T1, full model: kept (0000000000000000, STALE, not chosen to run)" in out
+    assert "T1, mirror model: kept" in out and "matches the current code" in out
+    assert read_record(path, EvidenceCheckRecord).cases["T1"].checks["full"].numbers_hash == "0" * 16

@@ -53,6 +53,34 @@ def test_the_hash_follows_the_data_and_the_settings(tmp_path):
         assert MC.current_hash("full", ROOT / "data", "T1", "full") == full["full"]
 
 
+def test_the_nested_runs_hash_leaves_out_the_modules_no_nested_run_imports(tmp_path):
+    """NOT_NESTED (the importance sampler) is out of the runs' hash and in the evidence check's, and no module the
+    runs' hash covers imports it (else a change of it could change their numbers unseen)."""
+    import ast
+
+    from bayestissue.io.results import source_files
+
+    package = ROOT / "bayestissue"
+    kept = [f.relative_to(package).as_posix() for f in source_files(MC.SOURCES, exclude=MC.NOT_NESTED)]
+    every = [f.relative_to(package).as_posix() for f in source_files(MC.SOURCES)]
+    assert set(every) - set(kept) == set(MC.NOT_NESTED) and "inference/sampling/ordering.py" not in MC.NOT_NESTED
+    left_out = {m.removesuffix(".py").replace("/", ".") for m in MC.NOT_NESTED}
+    for rel in kept:
+        for node in ast.walk(ast.parse((package / rel).read_text())):
+            if isinstance(node, ast.ImportFrom):
+                base = "bayestissue." + "/".join(rel.split("/")[: -node.level]).replace("/", ".") if node.level else ""
+                mod = (base + "." if base and node.module else base) + (node.module or "")
+                names = {mod} | {f"{mod}.{a.name}" for a in node.names}
+            elif isinstance(node, ast.Import):
+                names = {a.name for a in node.names}
+            else:
+                continue
+            assert not {n.removeprefix("bayestissue.") for n in names} & left_out, (rel, names)
+    data = tmp_path / "T1.csv"
+    data.write_text("t,u\n0,0\n")
+    assert MC.numbers_hash([data], "s") != MC.numbers_hash([data], "s", exclude=())
+
+
 def test_a_data_set_override_changes_that_data_set_only(stage):
     """OVERRIDES: the joint models take 4 slice steps per parameter (sds included) under --full, at least 4 per
     dimension the runs sample (twice UltraNest's default); T1 and T2 keep SETTINGS (their hashes are those of the
