@@ -40,7 +40,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from bayestissue.analyses.model_choice import CANDIDATES, DATASETS, FACTORS, TESTS, model_problem, numbers_hash
+from bayestissue.analyses.model_choice import (
+    CANDIDATES,
+    DATASETS,
+    FACTORS,
+    data_files,
+    model_problem,
+    numbers_hash,
+)
 from bayestissue.analyses.verdicts import evidence_decides, evidence_strength
 from bayestissue.inference import NestedOptions, sample_nested
 from bayestissue.inference.evidence import LEVELS, weighted_quantile
@@ -115,9 +122,8 @@ def check_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
     """:func:`~bayestissue.analyses.model_choice.numbers_hash` of the current code (the importance sampler included,
     which the nested runs' hash leaves out), the data set's files, the seed and ``mode``'s settings: it changes with
     anything the check's numbers depend on."""
-    files = [data_dir / f"{test}.{ext}" for test in TESTS[data] for ext in ("toml", "csv")]
     settings = repr(("importance", CHECK_SEED, model, CANDIDATES[data][model], CHECK_SETTINGS[mode]))
-    return numbers_hash(files, settings, exclude=())
+    return numbers_hash(data_files(data_dir, data), settings, exclude=())
 
 
 @dataclass(frozen=True)
@@ -225,9 +231,8 @@ def proposal_hash(mode: str, data_dir: Path, data: str, model: str, seed: int) -
     the nested code (not the importance sampler, :data:`~bayestissue.analyses.model_choice.NOT_NESTED`), the data
     set's files, the seed and ``mode``'s proposal settings. A change of the importance sampler alone keeps it, so
     that a rerun of the checks takes the runs' draws from the cache (:func:`proposal_run`)."""
-    files = [data_dir / f"{test}.{ext}" for test in TESTS[data] for ext in ("toml", "csv")]
     settings = repr(("proposal", seed, model, CANDIDATES[data][model], CHECK_SETTINGS[mode]["proposal"]))
-    return numbers_hash(files, settings)
+    return numbers_hash(data_files(data_dir, data), settings)
 
 
 @dataclass(frozen=True)

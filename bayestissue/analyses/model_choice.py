@@ -52,6 +52,7 @@ __all__ = [
     "ModelEvidence",
     "current_hash",
     "current_hashes",
+    "data_files",
     "model_evidence",
     "model_problem",
     "model_settings",
@@ -165,13 +166,18 @@ def numbers_hash(data_files, settings: str = "", exclude=NOT_NESTED) -> str:
     return h.hexdigest()[:16]
 
 
+def data_files(data_dir: Path, data: str) -> list[Path]:
+    """The experiment files (``.toml`` and ``.csv``) of the tests the data set ``data`` fits, in ``data_dir``: what a
+    hash of its numbers reads besides the code and the settings."""
+    return [Path(data_dir) / f"{test}.{ext}" for test in TESTS[data] for ext in ("toml", "csv")]
+
+
 def current_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
     """:func:`numbers_hash` of the current code, the data set ``data`` in ``data_dir``, the seed and ``mode``'s
     settings for ``model`` on ``data`` (:func:`model_settings`; each model its own: a change of one model's
     settings leaves the other's runs current; where the runs went is left out, since a run gives the same numbers
     wherever it ran, docs/cluster.md)."""
-    files = [data_dir / f"{test}.{ext}" for test in TESTS[data] for ext in ("toml", "csv")]
-    return numbers_hash(files, repr((STAGE_SEED, model, model_settings(mode, data, model))))
+    return numbers_hash(data_files(data_dir, data), repr((STAGE_SEED, model, model_settings(mode, data, model))))
 
 
 def current_hashes(rec: ModelChoiceRecord, data_dir: Path) -> dict[str, dict[str, str]]:
