@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LABELS = {"initial": "paper's initial guess", "T1": "paper Table 1, T1 result", "T2": "paper Table 1, T2 result"}
 
 
-def main(argv=None) -> Path:
+def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=ROOT / "data")
     ap.add_argument("--out", type=Path, default=ROOT / "figures")
@@ -56,8 +56,8 @@ def main(argv=None) -> Path:
     )
     print("\n".join(lines))
     print(f"forward_figure: wrote {path} in {time.perf_counter() - t0:.1f} s")
-    return path
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

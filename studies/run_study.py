@@ -1,6 +1,7 @@
 """The main study (``make study``): every stage on the bundled data, writing into figures/ (--quick: figures/quick/).
 
-Stages run in order, each a script in studies/ with a ``main(argv)``; the time of each is printed at the end.
+Stages run in order, each a script in studies/ with a ``main(argv)``; the time of each is printed at the end. A stage
+that raises or returns a nonzero exit code is reported as failed, the others still run, and the study exits 1.
 ``--quick`` is a smoke run (CI-sized chains, about 2 minutes) and writes into its own folder, never over the committed
 results; ``--full`` publication-quality chains; the default takes about 30 minutes on an idle 2-core machine
 (2026-11-25, before the laws stage: 1217 s of stages, 684 s of them calibration) and took 3002 s on 2026-11-27 on a
@@ -80,9 +81,12 @@ def main(argv=None) -> int:
         print(f"\n=== stage: {name} ({script} {' '.join(flags)}) ===", flush=True)
         t0 = time.perf_counter()
         try:
-            _load(script).main(flags)
+            rc = _load(script).main(flags)
         except Exception:  # a failed stage is reported; the others still run
             traceback.print_exc()
+            rc = 1
+        if rc:  # a stage's own exit code (e.g. 2: a record it cannot read) fails the study as an exception does
+            print(f"[study] stage {name} ({script}) failed (exit code {rc})", file=sys.stderr, flush=True)
             failed.append(name)
         timings.append((name, time.perf_counter() - t0))
     print("\n=== time per stage ===")

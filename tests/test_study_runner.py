@@ -12,7 +12,7 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture()
 def runner(monkeypatch):
     module = load_study("run_study")
-    ran = []
+    ran, codes = [], {}
 
     class Stage:
         def __init__(self, script):
@@ -20,8 +20,10 @@ def runner(monkeypatch):
 
         def main(self, flags):
             ran.append((self.script, tuple(flags)))
+            return codes.get(self.script)
 
     monkeypatch.setattr(module, "_load", Stage)
+    module.codes = codes  # a stage script's return value, by script (None: the stage returns nothing)
     return module, ran
 
 
@@ -46,3 +48,15 @@ def test_an_unknown_stage_is_refused_by_name(runner, capsys):
     assert exc.value.code == 2 and ran == []
     err = capsys.readouterr().err
     assert "--only: expected stages among" in err and "'calibrate.py'" in err and "got ['calib']" in err
+
+
+def test_a_stage_returning_a_nonzero_code_fails_the_study_and_the_others_still_run(runner, capsys):
+    module, ran = runner
+    module.codes["evidence_check.py"] = 2  # the evidence check's exit on a record it cannot read
+    assert module.main(["--only", "evidence check", "report"]) == 1
+    assert [s for s, _ in ran] == ["evidence_check.py", "report.py"]
+    err = capsys.readouterr().err
+    assert "stage evidence check (evidence_check.py) failed (exit code 2)" in err
+    assert "FAILED stages: evidence check" in err
+    module.codes["evidence_check.py"] = 0
+    assert module.main(["--only", "evidence check"]) == 0

@@ -34,6 +34,7 @@ on the run's draws before it is used).
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
@@ -249,15 +250,32 @@ class ProposalRun:
     cached: bool = False
 
 
-def proposal_run(problem, opts: NestedOptions, seed: int, path: Path | None) -> ProposalRun:
+def proposal_run(problem, opts: NestedOptions, seed: int, path: Path | None, progress=None) -> ProposalRun:
     """The nautilus run of ``problem`` (``opts``, ``seed``) whose draws the proposal is fitted to, read from ``path``
     (an ``.npz`` written by an earlier call under the same :func:`proposal_hash`) when it exists, else run and
-    written there (when ``path`` is given; atomically, so that a killed stage leaves no partial file)."""
+    written there (when ``path`` is given; atomically, so that a killed stage leaves no partial file).
+
+    While it runs (T1's full model: over an hour) nautilus checkpoints into the folder ``path`` names with the suffix
+    ``.nautilus`` after every ``opts.report_every`` likelihood calls, and ``progress(line)`` says how far it is: a
+    stage killed during the run resumes it from there (the folder's name holds the hash, so that only a run of the
+    same code, data, seed and settings is resumed; a resumed run gives the draws of an uninterrupted one, measured
+    on T1's mirror model at 100 live points, tests/analyses/test_evidence_check.py). The folder is removed once the
+    draws are written."""
     if path is not None and Path(path).is_file():
         with np.load(path) as f:
             return ProposalRun(f["points"], f["weights"], float(f["log_z"]), int(f["calls"]), float(f["time_s"]),
                                cached=True)  # fmt: skip
-    run = sample_nested(problem, options=opts, rng=seed).runs[0]
+    checkpoint = None if path is None else Path(path).with_suffix(".nautilus")
+    resume = checkpoint is not None and checkpoint.is_dir()
+    if resume and progress is not None:
+        progress(f"nautilus resumes from {checkpoint}")
+
+    def report(_run, calls, n_eff, explored, log_z):
+        if progress is not None:
+            phase = "sampling" if explored else "exploring"
+            progress(f"nautilus {calls} calls, {phase}, {n_eff:.0f} of {opts.n_eff} effective draws, log Z {log_z:.2f}")
+
+    run = sample_nested(problem, options=opts, rng=seed, checkpoint=checkpoint, resume=resume, progress=report).runs[0]
     found = ProposalRun(np.asarray(run.points), np.asarray(run.weights), float(run.log_z), int(run.n_like),
                         float(run.time_s))  # fmt: skip
     if path is not None:
@@ -266,6 +284,7 @@ def proposal_run(problem, opts: NestedOptions, seed: int, path: Path | None) -> 
         np.savez(part, points=found.points, weights=found.weights, log_z=found.log_z, calls=found.calls,
                  time_s=found.time_s)  # fmt: skip
         part.replace(path)
+        shutil.rmtree(checkpoint, ignore_errors=True)
     return found
 
 
@@ -273,12 +292,13 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
                 cache: Path | None = None) -> EvidenceCheck:  # fmt: skip
     """One model's check on the data set ``data`` (its files in ``data_dir``, for the hash): the nautilus run (from
     ``cache`` when an earlier stage ran it under the same :func:`proposal_hash`), the proposal fitted to its draws,
-    importance sampling (module docstring); ``progress(line)`` says where it is."""
+    importance sampling (module docstring); ``progress(line)`` says where it is (every 20 000 nautilus calls, every
+    adaptation round)."""
     settings = CHECK_SETTINGS[mode]
     opts = NestedOptions(**settings["proposal"], n_processes=1, report_every=20_000)
     key = proposal_hash(mode, data_dir, data, model, seed)
-    run = proposal_run(problem, opts, seed, None if cache is None else Path(cache) / f"proposal_{mode}_{data}_"
-                       f"{model}_{key}.npz")  # fmt: skip
+    path = None if cache is None else Path(cache) / f"proposal_{mode}_{data}_{model}_{key}.npz"
+    run = proposal_run(problem, opts, seed, path, lambda line: progress(f"{data} {model}: {line}"))
     how = "read from the cache" if run.cached else "run"
     progress(f"{data} {model}: nautilus {run.calls} calls, {run.time_s:.0f} s ({how}), its log Z {run.log_z:.3f}; "
              "importance sampling")  # fmt: skip
@@ -288,7 +308,13 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
     swap = mirror_swap(names, lambda x: log_l(prior(x)), u[np.argsort(w)[::-1]])
     iopts = ImportanceOptions(**settings["importance"])
     proposal = fit_unit_proposal(u, iopts, weights=w, seed=seed, swap=swap)
-    res = importance_evidence(lambda x: log_l(prior(x)), proposal, iopts, rng=seed)
+
+    def rounds(stage, done, total):  # one line per adaptation round and one for the estimate's draws
+        if done == total:
+            of = f" of at most {iopts.adapt_rounds}" if stage.startswith("adapt") else ""
+            progress(f"{data} {model}: importance sampling, {stage}{of} done ({total} draws)")
+
+    res = importance_evidence(lambda x: log_l(prior(x)), proposal, iopts, rng=seed, progress=rounds)
     x = prior(res.unit)
     padded = np.zeros((x.shape[0], problem.ndim))
     padded[:, :n_dim] = x

@@ -14,8 +14,11 @@ from bayestissue.analyses.evidence_check import (
     cached_check,
     check_hash,
     mirror_swap,
+    proposal_run,
 )
+from bayestissue.analyses.model_choice import model_problem
 from bayestissue.analyses.records import FILES
+from bayestissue.inference import NestedOptions, sample_nested
 from bayestissue.io.records import read_record
 from tests.study_module import load_study
 
@@ -150,3 +153,27 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     assert "T1, full model: kept (0000000000000000, STALE, not chosen to run)" in out
     assert "T1, mirror model: kept" in out and "matches the current code" in out
     assert read_record(path, EvidenceCheckRecord).cases["T1"].checks["full"].numbers_hash == "0" * 16
+
+
+def test_a_killed_nautilus_run_resumes_from_its_checkpoint_and_gives_the_uninterrupted_runs_draws(tmp_path):
+    """The proposal's nautilus run says how far it is while it runs and checkpoints beside its draws' file; a run
+    killed half way (here: stopped at 1 500 of 3 000 calls, its checkpoint left) resumes from the checkpoint, says
+    so, spends only the calls it had not, and gives the draws an uninterrupted run gives; the checkpoint is removed
+    once the draws are written, and a second call reads them back."""
+    problem = model_problem(ROOT / "data", "T1", "mirror")
+    opts = dict(n_live=100, n_eff=200, n_runs=1, n_networks=1, n_processes=1, report_every=500)
+    lines = []
+    whole = proposal_run(problem, NestedOptions(**opts, max_evaluations=3000), 5, tmp_path / "a.npz", lines.append)
+    assert lines[0].startswith("nautilus 500 calls, exploring, ") and len(lines) == 6
+    assert whole.calls == 3000 and not (tmp_path / "a.nautilus").exists() and (tmp_path / "a.npz").is_file()
+    assert proposal_run(problem, NestedOptions(**opts, max_evaluations=3000), 5, tmp_path / "a.npz").cached
+    killed = tmp_path / "b.nautilus"
+    sample_nested(problem, options=NestedOptions(**opts, max_evaluations=1500), rng=5, checkpoint=killed)
+    lines.clear()
+    resumed = proposal_run(problem, NestedOptions(**opts, max_evaluations=3000), 5, tmp_path / "b.npz", lines.append)
+    assert lines[0] == f"nautilus resumes from {killed}" and lines[1].startswith("nautilus 2000 calls")
+    # the progress lines start past the kill (2 000 calls, not 500): only the calls not yet spent are run; the cost
+    # counts both sessions'
+    assert len(lines) == 4 and resumed.calls == 3000 and not killed.exists()
+    assert np.array_equal(resumed.points, whole.points, equal_nan=True) and resumed.log_z == whole.log_z
+    assert np.array_equal(resumed.weights, whole.weights)
