@@ -23,26 +23,25 @@ def runner(monkeypatch):
             return codes.get(self.script)
 
     monkeypatch.setattr(module, "_load", Stage)
-    module.codes = codes  # a stage script's return value, by script (None: the stage returns nothing)
-    return module, ran
+    return module, ran, codes  # codes: a stage script's return value, by script (None: the stage returns nothing)
 
 
 def test_only_selects_stages_by_script_or_name_in_study_order(runner):
-    module, ran = runner
+    module, ran, _ = runner
     assert module.main(["--quick", "--only", "report.py", "calibration"]) == 0
     quick = ("--quick", "--out", str(ROOT / "figures" / "quick"))  # a quick run never writes over figures/
     assert ran == [("calibrate.py", quick), ("report.py", quick)]
 
 
 def test_default_and_chosen_output_folders(runner, tmp_path):
-    module, ran = runner
+    module, ran, _ = runner
     assert module.main(["--only", "report.py"]) == 0
     assert module.main(["--full", "--only", "report.py", "--out", str(tmp_path)]) == 0
     assert ran == [("report.py", ("--out", str(ROOT / "figures"))), ("report.py", ("--full", "--out", str(tmp_path)))]
 
 
 def test_an_unknown_stage_is_refused_by_name(runner, capsys):
-    module, ran = runner
+    module, ran, _ = runner
     with pytest.raises(SystemExit) as exc:
         module.main(["--only", "calib"])
     assert exc.value.code == 2 and ran == []
@@ -51,12 +50,12 @@ def test_an_unknown_stage_is_refused_by_name(runner, capsys):
 
 
 def test_a_stage_returning_a_nonzero_code_fails_the_study_and_the_others_still_run(runner, capsys):
-    module, ran = runner
-    module.codes["evidence_check.py"] = 2  # the evidence check's exit on a record it cannot read
+    module, ran, codes = runner
+    codes["evidence_check.py"] = 2  # the evidence check's exit on a record it cannot read
     assert module.main(["--only", "evidence check", "report"]) == 1
     assert [s for s, _ in ran] == ["evidence_check.py", "report.py"]
     err = capsys.readouterr().err
     assert "stage evidence check (evidence_check.py) failed (exit code 2)" in err
     assert "FAILED stages: evidence check" in err
-    module.codes["evidence_check.py"] = 0
+    codes["evidence_check.py"] = 0
     assert module.main(["--only", "evidence check"]) == 0

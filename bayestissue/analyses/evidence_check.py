@@ -59,7 +59,7 @@ from bayestissue.inference.sampling.importance import (
     importance_evidence,
     pooled_unit_draws,
 )
-from bayestissue.inference.sampling.nested import nested_target
+from bayestissue.inference.sampling.nested import RunPhases, nested_target
 from bayestissue.io.records import read_record, write_record
 from bayestissue.paper import MIRROR_TIES
 
@@ -270,12 +270,14 @@ def proposal_run(problem, opts: NestedOptions, seed: int, path: Path | None, pro
     if resume and progress is not None:
         progress(f"nautilus resumes from {checkpoint}")
 
-    def report(_run, calls, n_eff, explored, log_z):
-        if progress is not None:
-            phase = "sampling" if explored else "exploring"
-            progress(f"nautilus {calls} calls, {phase}, {n_eff:.0f} of {opts.n_eff} effective draws, log Z {log_z:.2f}")
+    phases = RunPhases(opts.n_eff)
 
-    run = sample_nested(problem, options=opts, rng=seed, checkpoint=checkpoint, resume=resume, progress=report).runs[0]
+    def report(k, calls, n_eff, explored, log_z):
+        phases.update(k, calls, n_eff, explored)
+        progress(f"nautilus {phases.evaluations} calls, {phases.text()}, log Z {log_z:.2f}")
+
+    run = sample_nested(problem, options=opts, rng=seed, checkpoint=checkpoint, resume=resume,
+                        progress=None if progress is None else report).runs[0]  # fmt: skip
     found = ProposalRun(np.asarray(run.points), np.asarray(run.weights), float(run.log_z), int(run.n_like),
                         float(run.time_s))  # fmt: skip
     if path is not None:

@@ -164,14 +164,14 @@ def test_a_killed_nautilus_run_resumes_from_its_checkpoint_and_gives_the_uninter
     opts = dict(n_live=100, n_eff=200, n_runs=1, n_networks=1, n_processes=1, report_every=500)
     lines = []
     whole = proposal_run(problem, NestedOptions(**opts, max_evaluations=3000), 5, tmp_path / "a.npz", lines.append)
-    assert lines[0].startswith("nautilus 500 calls, exploring, ") and len(lines) == 6
+    assert lines[0].startswith("nautilus 500 calls, run 0 exploring, log Z ") and len(lines) == 6
     assert whole.calls == 3000 and not (tmp_path / "a.nautilus").exists() and (tmp_path / "a.npz").is_file()
     assert proposal_run(problem, NestedOptions(**opts, max_evaluations=3000), 5, tmp_path / "a.npz").cached
     killed = tmp_path / "b.nautilus"
     sample_nested(problem, options=NestedOptions(**opts, max_evaluations=1500), rng=5, checkpoint=killed)
     lines.clear()
     resumed = proposal_run(problem, NestedOptions(**opts, max_evaluations=3000), 5, tmp_path / "b.npz", lines.append)
-    assert lines[0] == f"nautilus resumes from {killed}" and lines[1].startswith("nautilus 2000 calls")
+    assert lines[0] == f"nautilus resumes from {killed}" and lines[1].startswith("nautilus 2000 calls, run 0 ")
     # the progress lines start past the kill (2 000 calls, not 500): only the calls not yet spent are run; the cost
     # counts both sessions'
     assert len(lines) == 4 and resumed.calls == 3000 and not killed.exists()
