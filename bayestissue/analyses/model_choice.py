@@ -64,10 +64,11 @@ __all__ = [
 #: leaves the numbers as they are).
 SOURCES = ("mechanics", "inference", "workflows", "paper.py", "_validation.py")
 #: Modules of :data:`SOURCES` that no nested run imports, left out of the runs' hash: the importance-sampling
-#: estimator, which only the evidence check calls (:func:`~bayestissue.analyses.evidence_check.check_hash` hashes
-#: it with the rest), so that a change of it leaves the nested runs' records current. No module of :data:`SOURCES`
-#: imports it (tests/analyses/test_model_choice.py reads their imports).
-NOT_NESTED = ("inference/sampling/importance.py",)
+#: estimator and its line quadrature, which only the evidence check calls
+#: (:func:`~bayestissue.analyses.evidence_check.check_hash` hashes what a check uses with the rest), so that a change
+#: of them leaves the nested runs' records current. No other module of :data:`SOURCES` imports them
+#: (tests/analyses/test_model_choice.py reads their imports).
+NOT_NESTED = ("inference/sampling/importance.py", "inference/sampling/collapsed.py")
 #: The stage's seed: data set ``j`` of :data:`DATASETS`, model ``k`` (its place in the data set's :data:`CANDIDATES`:
 #: mirror 0, full 1, scale 2) draws its runs' seeds from ``STAGE_SEED + 10 j + k``.
 STAGE_SEED = 20261128

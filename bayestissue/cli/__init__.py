@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import math
 import sys
 import time
 from pathlib import Path
@@ -58,13 +59,15 @@ def progress_bar(args, **kwargs):
 def run_lines(label: str, seconds: float = 60.0):
     """A nested engine's ``progress`` callback for a long study stage or benchmark: prints ``{label} run {run}:
     {calls} calls, log Z so far {log_z}`` at most every ``seconds`` (a killed stage's log still says how far each run
-    got)."""
+    got); without the log Z where the engine does not report one during the run (UltraNest's population step passes
+    NaN)."""
     last = [time.perf_counter()]
 
     def report(run, n_evaluations, n_eff, explored, log_z):
         if time.perf_counter() - last[0] >= seconds:
             last[0] = time.perf_counter()
-            print(f"{label} run {run}: {n_evaluations} calls, log Z so far {log_z:.3f}", flush=True)
+            so_far = f", log Z so far {log_z:.3f}" if math.isfinite(log_z) else ""
+            print(f"{label} run {run}: {n_evaluations} calls{so_far}", flush=True)
 
     return report
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
-from bayestissue.analyses.evidence_check import PROPOSAL_ERROR
+from bayestissue.analyses.evidence_check import COLLAPSED, PROPOSAL_ERROR
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord, rerun_command
 from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import (
@@ -153,6 +153,11 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
     }
 
 
+def _quadrature(data: str, model: str) -> str:
+    """Where a collapsed check's verdict says how its line quadrature went (analyses.evidence_check.check_model)."""
+    return f"{COLLAPSED[data, model]} by quadrature: "
+
+
 def model_choice_context(
     rec: ModelChoiceRecord | None,
     I: IdentifiabilityRecord,
@@ -163,7 +168,9 @@ def model_choice_context(
     """Everything the model-choice lines read; None without the record. ``now``: data set -> model -> the current
     code's hash for the record's mode (:func:`~bayestissue.analyses.model_choice.current_hash`; None: not checked).
     ``check``: the importance-sampling record (:class:`~bayestissue.analyses.evidence_check.EvidenceCheckRecord`) or
-    None, ``check_now`` its current hashes likewise (:func:`~bayestissue.analyses.evidence_check.check_hash`)."""
+    None, ``check_now`` its current hashes likewise (:func:`~bayestissue.analyses.evidence_check.check_hash`);
+    ``quadrature`` lists the checks made with a parameter integrated out by quadrature and their quadrature's
+    counts (:data:`~bayestissue.analyses.evidence_check.COLLAPSED`, from their verdicts)."""
     if rec is None:
         return None
     now = now or {}
@@ -171,5 +178,10 @@ def model_choice_context(
     stale = [] if check is None or check_now is None else [
         f"{d} {m}" for d, c in check.cases.items() for m, e in c.checks.items()
         if check_now.get(d, {}).get(m) != e.numbers_hash]  # fmt: skip
+    quadrature = [] if check is None else [
+        {"data": d, "model": m, "param": COLLAPSED[d, m], "text": e.verdict.split(_quadrature(d, m))[1]}
+        for d, c in check.cases.items() for m, e in c.checks.items()
+        if (d, m) in COLLAPSED and _quadrature(d, m) in e.verdict]  # fmt: skip
     return {"record": rec, "cases": cases, "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR,
-            "check": check, "check_stale": stale, "proposal_error": PROPOSAL_ERROR}  # fmt: skip
+            "check": check, "check_stale": stale, "proposal_error": PROPOSAL_ERROR,
+            "quadrature": quadrature}  # fmt: skip

@@ -8,15 +8,19 @@ import numpy as np
 import pytest
 
 from bayestissue.analyses.evidence_check import (
+    CHECK_SEED,
+    CHECK_SETTINGS,
+    COLLAPSED_MODULE,
     PROPOSAL_ERROR,
     CheckCase,
     EvidenceCheckRecord,
     cached_check,
     check_hash,
+    check_model,
     mirror_swap,
     proposal_run,
 )
-from bayestissue.analyses.model_choice import model_problem
+from bayestissue.analyses.model_choice import CANDIDATES, data_files, model_problem, numbers_hash
 from bayestissue.analyses.records import FILES
 from bayestissue.inference import NestedOptions, sample_nested
 from bayestissue.io.records import read_record
@@ -177,3 +181,28 @@ def test_a_killed_nautilus_run_resumes_from_its_checkpoint_and_gives_the_uninter
     assert len(lines) == 4 and resumed.calls == 3000 and not killed.exists()
     assert np.array_equal(resumed.points, whole.points, equal_nan=True) and resumed.log_z == whole.log_z
     assert np.array_equal(resumed.weights, whole.weights)
+
+
+@pytest.mark.slow
+def test_a_collapsed_check_integrates_its_parameter_out_and_reports_the_quadrature(tmp_path):
+    """The joint full model (COLLAPSED: kappa) under --quick settings (numbers mean nothing): the proposal is fitted
+    over the other 10 parameters, symmetrised over families 2 and 3 at their shifted indices; the verdict names the
+    quadrature and the share of weight on doubtful points; the quantiles cover all 11 parameters, kappa's drawn from
+    its conditionals inside the box; the hash differs from the check's without the line quadrature."""
+    problem = model_problem(ROOT / "data", "joint", "full")
+    lines = []
+    c = check_model(problem, ROOT / "data", "joint", "full", "quick", 7, lines.append, tmp_path)
+    assert any("kappa integrated out by quadrature" in line for line in lines)
+    # the likelihood calls: per point a 41-point bracket, 6 Newton steps of 3 and 12 nodes, plus kappa's draws
+    assert c.n_draws == 500 and c.calls == 750 * 71 + 200 * 59 and len(c.quantiles) == len(c.names) == 11
+    assert "kappa by quadrature: 41-point bracket" in c.verdict and "of the weight" in c.verdict
+    assert c.swapped == [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
+    q = c.quantiles[c.names.index("kappa")]
+    assert 0 < q[0] <= q[1] <= q[2] and np.all(np.isfinite(q))
+    # the line quadrature's module is in this check's hash, and in no other's
+    files = data_files(ROOT / "data", "joint")
+    assert c.numbers_hash == check_hash("quick", ROOT / "data", "joint", "full")
+    for model in ("mirror", "scale"):
+        settings = repr(("importance", CHECK_SEED, model, CANDIDATES["joint"][model], CHECK_SETTINGS["quick"]))
+        assert check_hash("quick", ROOT / "data", "joint", model) == numbers_hash(files, settings, exclude=(
+            COLLAPSED_MODULE,)) != numbers_hash(files, settings, exclude=())  # fmt: skip

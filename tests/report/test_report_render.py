@@ -431,3 +431,24 @@ def test_a_trusted_importance_sampling_factor_rules_the_model_choice(records):
     assert "(**apart**: more than 2 of their combined errors): the estimators disagree." in text
     row, _ = render(4.0, trusted=False, nested_shift=-4.0)  # an untrusted check leaves the nested runs' choice
     assert "T1: **full** (nested runs);" in row and "(strong, **not trusted**)" in row
+
+
+def test_a_check_with_a_parameter_integrated_out_says_so_with_its_quadratures_counts(records):
+    """A check made with kappa integrated out by quadrature (COLLAPSED: the joint full model) gets a line naming the
+    parameter and the quadrature's counts from its verdict; a check of the same model whose verdict does not carry
+    them (made before the quadrature) gets none."""
+    from bayestissue.analyses.evidence_check import CheckCase
+
+    check = records.evidence_check
+    full = check.cases["T1"].checks["full"]
+    counts = (
+        "41-point bracket of +-0.0679 (largest regression residual 0.0453), 6 Newton steps, 12 Gauss-Hermite "
+        "nodes: peak on the bracket's edge at 3 of 20000 points, not concave at 1, holding 0.0004 of the weight"
+    )
+    quad = dataclasses.replace(full, verdict=full.verdict + "; kappa by quadrature: " + counts)
+    for made, expected in ((quad, True), (full, False)):
+        cases = {**check.cases, "joint": CheckCase("joint", {"full": made})}
+        text = render_report(dataclasses.replace(records, evidence_check=dataclasses.replace(check, cases=cases)))
+        line = "joint full: its posterior is a curved sheet far thinner across kappa than along it"
+        assert (line in text) is expected
+        assert (counts + "." in text) is expected
