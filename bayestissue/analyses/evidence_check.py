@@ -88,6 +88,7 @@ __all__ = [
     "mirror_swap",
     "proposal_hash",
     "proposal_run",
+    "quadrature_label",
 ]
 
 #: Error (nats) added in quadrature to each importance-sampling log Z in a factor: the largest difference measured
@@ -152,6 +153,12 @@ COLLAPSED_SETTINGS = {
 DOUBT_MAX = 0.01
 #: The line quadrature's module, in the hash of a collapsed check only (the other checks' hashes stay as they were).
 COLLAPSED_MODULE = "inference/sampling/collapsed.py"
+
+
+def quadrature_label(param: str) -> str:
+    """The words that open a collapsed check's quadrature counts in its verdict (:func:`check_model` writes them, the
+    report finds the counts by them)."""
+    return f"{param} by quadrature: "
 
 
 def check_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
@@ -376,7 +383,7 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
         unit = res.unit
     else:  # quantiles from draws resampled by weight, each with the integrated parameter from its conditional
         share = float(wn[line.last_doubtful(res.n_draws)].sum())
-        verdict += f"; {collapsed} by quadrature: {line.text()}, holding {share:.2g} of the weight"
+        verdict += f"; {quadrature_label(collapsed)}{line.text()}, holding {share:.2g} of the weight"
         if share >= DOUBT_MAX:
             trusted = False
             verdict += f" (NOT TRUSTED: at least {DOUBT_MAX:g})"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
-from bayestissue.analyses.evidence_check import COLLAPSED, PROPOSAL_ERROR
+from bayestissue.analyses.evidence_check import COLLAPSED, PROPOSAL_ERROR, quadrature_label
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord, rerun_command
 from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import (
@@ -153,11 +153,6 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
     }
 
 
-def _quadrature(data: str, model: str) -> str:
-    """Where a collapsed check's verdict says how its line quadrature went (analyses.evidence_check.check_model)."""
-    return f"{COLLAPSED[data, model]} by quadrature: "
-
-
 def model_choice_context(
     rec: ModelChoiceRecord | None,
     I: IdentifiabilityRecord,
@@ -179,9 +174,9 @@ def model_choice_context(
         f"{d} {m}" for d, c in check.cases.items() for m, e in c.checks.items()
         if check_now.get(d, {}).get(m) != e.numbers_hash]  # fmt: skip
     quadrature = [] if check is None else [
-        {"data": d, "model": m, "param": COLLAPSED[d, m], "text": e.verdict.split(_quadrature(d, m))[1]}
+        {"data": d, "model": m, "param": COLLAPSED[d, m], "text": e.verdict.split(quadrature_label(COLLAPSED[d, m]))[1]}
         for d, c in check.cases.items() for m, e in c.checks.items()
-        if (d, m) in COLLAPSED and _quadrature(d, m) in e.verdict]  # fmt: skip
+        if (d, m) in COLLAPSED and quadrature_label(COLLAPSED[d, m]) in e.verdict]  # fmt: skip
     return {"record": rec, "cases": cases, "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR,
             "check": check, "check_stale": stale, "proposal_error": PROPOSAL_ERROR,
             "quadrature": quadrature}  # fmt: skip
