@@ -136,17 +136,19 @@ CHECK_SETTINGS = {
 #: (907.63 +- 0.10), and over the other 10 with kappa integrated out the first trial (10 rounds of 5 000, 20 000
 #: draws, 4.97 M calls, 1 210 s beside two other runs) gave 907.89 +- 0.10 with k-hat 0.75; the stage's run, the
 #: line's regression folded over the mirror exchange, 907.38 +- 0.09 with k-hat 0.54, but its doubtful quadratures
-#: hold 3.6 % of the weight (docs/verification.md, stop 75).
+#: hold 3.6 % of the weight (docs/verification.md, stop 75); with the re-brackets (stop 76) of 4 000 draws of the
+#: proposal fitted to the nautilus draws 117 stay doubtful where 410 were, and those 410 gained 71 nats (median);
+#: the stage's run, 908.02 +- 0.17, k-hat 0.57, ESS 33 of 30 000, doubtful weight 5e-96: TRUSTED.
 COLLAPSED = {("joint", "full"): "kappa"}
 #: A collapsed check's settings per mode: its importance sampling (over the check's own settings; each point costs
 #: about 71 likelihood calls, :class:`~bayestissue.inference.sampling.collapsed.LineQuadrature`, so the rounds and
-#: the estimate have fewer draws: 5 000 a round and 30 000 in the estimate are 0.36 M and 2.1 M calls, at most 12
-#: rounds, about 2.2 minutes a round of one core here; the first trial's rounds did not rise after the first, at
-#: 907.49-908.02) and how many draws, resampled by weight and each given a value of the integrated parameter from
-#: its conditional (59 calls each), its quantiles come from.
+#: the estimate have fewer draws: 5 000 a round and 30 000 in the estimate are 0.36 M and 2.1 M calls, at most 24
+#: rounds, about 2.2 minutes a round of one core here; stop 75's 12 rounds still rose, 901.63 to 907.67) and how
+#: many draws, resampled by weight and each given a value of the integrated parameter from its conditional (59
+#: calls each), its quantiles come from.
 COLLAPSED_SETTINGS = {
     "quick": {"importance": {"n_draws": 500, "adapt_draws": 250}, "quantile_draws": 200},
-    "full": {"importance": {"n_draws": 30_000, "adapt_draws": 5_000, "adapt_rounds": 12}, "quantile_draws": 4000},
+    "full": {"importance": {"n_draws": 30_000, "adapt_draws": 5_000, "adapt_rounds": 24}, "quantile_draws": 4000},
 }
 #: A collapsed estimate is trusted only if the draws whose line quadrature is doubtful (the peak on its bracket's
 #: edge, or not concave) hold less than this share of its normalised weight.

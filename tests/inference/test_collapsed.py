@@ -131,16 +131,35 @@ def test_draws_of_the_integrated_coordinate_follow_its_conditional():
     assert abs(t.std() - 1) < 0.05 and abs(t.mean()) < 4 / np.sqrt(len(t))
 
 
-def test_a_peak_outside_the_bracket_is_counted_not_hidden():
-    """A predictor moved off the sheet by twice the bracket: every point's grid maximum is on its edge, and the
-    counts say so (the estimate there would be low)."""
+def test_a_peak_outside_the_bracket_is_found_by_the_re_brackets():
+    """A predictor moved off the sheet by twice the bracket (+-0.01, 11 points): the first bracket's maximum is on its
+    edge at every point; the re-bracket centred there, twice as wide, holds the peak, so no point is counted and
+    :math:`\\log L_c` is the closed form's (1e-8, as for the predictor on the sheet) at 11 more calls a point."""
     d, rng = 4, np.random.default_rng(7)
     u = _draws(500, d, rng)
     line = fit_line(u, np.full(len(u), 1 / len(u)), K, window=0.01, grid=11)
     line.coef = line.coef.copy()
     line.coef[0] += 0.02
+    rest = np.delete(u, K, axis=1)[:40]
+    zr = logit(rest)
+    exact = -0.5 * np.sum(zr**2, axis=1) - 0.5 * (d - 1) * np.log(2 * np.pi) - np.sum(_log_jac(zr), axis=1)
+    assert np.max(np.abs(line(_sheet(), rest) - exact)) < 1e-8
+    assert (line.edge, line.flat) == (0, 0) and line.calls == 40 * (11 + 11 + 3 * 6 + 12)
+
+
+@pytest.mark.parametrize(("shift", "rebracket"), [(0.02, 0), (0.5, 4)])
+def test_a_peak_beyond_the_re_brackets_is_counted_not_hidden(shift, rebracket):
+    """A peak the brackets cannot reach (twice the bracket off without re-brackets; 0.5 off, beyond the 31 windows
+    that four doublings reach): every point is counted as on the edge, and the line says so (the estimate there would
+    be low)."""
+    d, rng = 4, np.random.default_rng(7)
+    u = _draws(500, d, rng)
+    line = fit_line(u, np.full(len(u), 1 / len(u)), K, window=0.01, grid=11, rebracket=rebracket)
+    line.coef = line.coef.copy()
+    line.coef[0] += shift
     line(_sheet(), np.delete(u, K, axis=1)[:40])
     assert line.edge == 40 and "edge at 40 of 40 points" in line.text()
+    assert f"at most {rebracket} re-brackets" in line.text()
 
 
 def test_same_seed_same_result():
@@ -156,7 +175,8 @@ def test_same_seed_same_result():
 @pytest.mark.parametrize(
     ("kw", "field"),
     [({"window": 1e-6}, "line quadrature window"), ({"grid": 2}, "line quadrature grid"),
-     ({"newton": 0}, "line quadrature newton"), ({"nodes": 1}, "line quadrature nodes")],
+     ({"newton": 0}, "line quadrature newton"), ({"nodes": 1}, "line quadrature nodes"),
+     ({"rebracket": -1}, "line quadrature rebracket")],
 )  # fmt: skip
 def test_bad_settings_name_the_field(kw, field):
     u = _draws(500, 4, np.random.default_rng(9))
@@ -174,11 +194,10 @@ def test_a_mirror_symmetric_sheet_needs_the_regression_folded():
     """Two mirror copies of a sheet, exchanged by the other coordinates 1 and 2, whose centre in z_K is the same at a
     point and its mirror image (:math:`c = 0.5 |z_1 - z_2| + 0.2 z_0`, linear within each copy); the draws hold one
     copy only (as the joint full model's nautilus run did). Fitted without the fold, the regression predicts the
-    other copy's peaks far off (more than 1 in logit, 10 000 sheet thicknesses) and, with the same bracket, most of
-    those points' peaks fall on its edge (counted); folded over the exchange it predicts both copies within half a
-    thickness (the draws' own scatter about the centre),
-    no peak is on the edge, and the evidence (log Z = 0 exactly; the proposal symmetrised) is within 4 errors and
-    0.03 of zero."""
+    other copy's peaks far off (more than 1 in logit, 10 000 sheet thicknesses) and, with the same bracket and no
+    re-brackets, most of those points' peaks fall on its edge (counted); folded over the exchange it predicts both
+    copies within half a thickness (the draws' own scatter about the centre), no peak is on the edge, and the
+    evidence (log Z = 0 exactly; the proposal symmetrised) is within 4 errors and 0.03 of zero."""
     d, swap, rng = 5, ((1,), (2,)), np.random.default_rng(11)
     mu = np.array([0.0, 1.5, -1.5, 0.0])
 
@@ -200,7 +219,8 @@ def test_a_mirror_symmetric_sheet_needs_the_regression_folded():
     u = expit(np.insert(zr, K, centre(zr) + SD * rng.standard_normal(len(zr)), axis=1))
     w = np.full(len(u), 1 / len(u))
     line = fit_line(u, w, K, swap=swap, window=0.5)
-    unfolded = dataclasses.replace(line, coef=fit_line(u, w, K).coef, swap=None)  # the same bracket, no fold
+    # the same bracket, no fold, no re-brackets
+    unfolded = dataclasses.replace(line, coef=fit_line(u, w, K).coef, swap=None, rebracket=0)
     mirrored = zr[:, [0, 2, 1, 3]][:300]
     assert np.max(np.abs(line.predict(mirrored) - centre(mirrored))) < 0.5 * SD
     assert np.median(np.abs(unfolded.predict(mirrored) - centre(mirrored))) > 1.0
