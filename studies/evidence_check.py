@@ -29,6 +29,7 @@ import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 
+from bayestissue.analyses.box_width import FACTOR  # noqa: E402
 from bayestissue.analyses.evidence_check import (  # noqa: E402
     CHECK_SEED,
     CheckCase,
@@ -101,8 +102,12 @@ def _summary(rec: EvidenceCheckRecord, nested: ModelChoiceRecord | None) -> str:
         for a, b in case.factors_run:
             f = case.factor(a, b)
             why = "decides" if f["decides"] else ("does not decide" if f["trusted"] else "not both trusted")
+            (narrow, err), (volume, _), (flat, _) = (case.box_moves(a, b)[k] for k in
+                                                     ("narrowed", "widened_volume", "widened_flat"))  # fmt: skip
             lines.append(f"\nln B {a} over {b}: {f['log_b']:.2f} +- {f['err']:.2f} ({f['grade']} for {f['favours']}; "
-                         f"{why})")  # fmt: skip
+                         f"{why}); with every log box of the material parameters {FACTOR:g} times narrower at each end "
+                         f"it moves by {narrow:+.2f} +- {err:.2f}, wider {volume:+.2f} (volume terms) or {flat:+.2f} "
+                         "(flat estimate; analyses/box_width.py)")  # fmt: skip
         for model, c in case.checks.items():
             lines += ["", f"### {case.data}, {model}: {c.verdict}", ""]
             if c.swapped:

@@ -31,6 +31,14 @@ likelihood turns beyond the bound; only runs in the wider box measure it.
 The log Bayes factor of model A over model B moves by the difference of the two models' shifts; parameters the two
 models share move both evidences alike, so the factor moves by the volume of the parameters one model has and the
 other not, and by the posterior mass each model keeps.
+
+**From importance-weighted draws** (:func:`box_shift_weighted`, the evidence check's draws,
+:mod:`~bayestissue.analyses.evidence_check`): the same terms, the posterior shares from the self-normalised weights.
+Their error is that of a share among as many independent draws as the weights' Kish effective sample size
+:math:`n_e` (Kish 1965, *Survey Sampling*, 8.2), with the Agresti-Coull centre
+:math:`\\tilde p = (n_e \\hat p + 1)/(n_e + 2)` so that a share of 1 (no weight outside) still carries one
+(Agresti & Coull 1998, *Am. Stat.* 52, 119): :math:`\\sigma_{\\ln p} = \\sqrt{\\tilde p (1 - \\tilde p)/(n_e + 2)}
+/ \\tilde p`.
 """
 
 from __future__ import annotations
@@ -42,7 +50,7 @@ import numpy as np
 
 from bayestissue.inference.diagnostics import runs_mean_error
 
-__all__ = ["FACTOR", "BoxShift", "box_shift", "merge_runs"]
+__all__ = ["FACTOR", "BoxShift", "box_shift", "box_shift_weighted", "merge_runs"]
 
 #: every log-scaled box narrowed or widened by this factor at each end (issue 36)
 FACTOR = 10.0
@@ -84,40 +92,87 @@ def _log_share(inside: np.ndarray, w: np.ndarray, reps: np.ndarray | None) -> tu
     return (math.log(share) if share > 0 else -math.inf), float(boot.std(ddof=1)) if boot.size > 1 else math.nan
 
 
+@dataclass(frozen=True)
+class _Boxes:
+    """The log-scaled columns of ``specs``, their widths :math:`W_j`, the ones narrowing keeps (wider than
+    ``factor**2``) and the two volume terms (module docstring)."""
+
+    factor: float
+    log_cols: list[int]
+    narrow: list[int]
+    volume_narrow: float
+    volume_wide: float
+
+    @classmethod
+    def of(cls, specs, factor: float) -> _Boxes:
+        lf = math.log(factor)
+        log_cols = [j for j, s in enumerate(specs) if s.prior == "loguniform"]
+        if not log_cols:
+            raise ValueError("no log-uniform parameter: nothing to narrow or widen")
+        width = {j: math.log(specs[j].upper / specs[j].lower) for j in log_cols}
+        narrow = [j for j in log_cols if width[j] > 2 * lf]
+        return cls(factor=float(factor), log_cols=log_cols, narrow=narrow,
+                   volume_narrow=sum(math.log(width[j] / (width[j] - 2 * lf)) for j in narrow),
+                   volume_wide=-sum(math.log((width[j] + 2 * lf) / width[j]) for j in log_cols))  # fmt: skip
+
+    def inside(self, x: np.ndarray, specs) -> np.ndarray:
+        """Which points ``x`` (natural units) lie inside the narrowed boxes."""
+        keep = np.ones(x.shape[0], dtype=bool)
+        for j in self.narrow:
+            keep &= (x[:, j] >= specs[j].lower * self.factor) & (x[:, j] <= specs[j].upper / self.factor)
+        return keep
+
+    def shift(self, specs, narrowed: list[tuple[float, float]], merged: tuple[float, float], x, w) -> BoxShift:
+        """The :class:`BoxShift` from per-estimate ``narrowed`` (value, error) pairs, their ``merged`` value and the
+        pooled points ``x`` with normalised weights ``w`` (for the edge shares)."""
+        f = self.factor
+        edge = [(float(w[x[:, j] < specs[j].lower * f].sum()), float(w[x[:, j] > specs[j].upper / f].sum()))
+                for j in self.log_cols]  # fmt: skip
+        return BoxShift(
+            factor=f,
+            names=[specs[j].name for j in self.log_cols],
+            narrowed_runs=[float(v) for v, _ in narrowed],
+            narrowed_errs=[float(e) for _, e in narrowed],
+            narrowed=merged,
+            widened_volume=float(self.volume_wide),
+            edge_share=edge,
+            widened_flat=float(self.volume_wide + math.log1p(sum(lo + hi for lo, hi in edge))),
+        )
+
+
 def box_shift(runs, specs, factor: float = FACTOR) -> BoxShift:
     """:class:`BoxShift` of one model from its nested ``runs`` (each with ``points`` in natural units, normalised
     ``log_w`` and optional ``bootstrap_weights``) and its sampled parameters' ``specs`` (``name``, ``prior``,
     ``lower``, ``upper``), in the runs' column order."""
-    lf = math.log(factor)
-    log_cols = [j for j, s in enumerate(specs) if s.prior == "loguniform"]
-    if not log_cols:
-        raise ValueError("no log-uniform parameter: nothing to narrow or widen")
-    width = {j: math.log(specs[j].upper / specs[j].lower) for j in log_cols}
-    narrow = [j for j in log_cols if width[j] > 2 * lf]
-    volume_narrow = sum(math.log(width[j] / (width[j] - 2 * lf)) for j in narrow)
-    values, errs, xs, ws = [], [], [], []
+    boxes = _Boxes.of(specs, factor)
+    narrowed, xs, ws = [], [], []
     for r in runs:
         x, w = np.asarray(r.points, dtype=float), np.exp(np.asarray(r.log_w, dtype=float))
-        inside = np.ones(len(w), dtype=bool)
-        for j in narrow:
-            inside &= (x[:, j] >= specs[j].lower * factor) & (x[:, j] <= specs[j].upper / factor)
-        log_p, err = _log_share(inside, w, getattr(r, "bootstrap_weights", None))
-        values.append(volume_narrow + log_p)
-        errs.append(err)
+        log_p, err = _log_share(boxes.inside(x, specs), w, getattr(r, "bootstrap_weights", None))
+        narrowed.append((boxes.volume_narrow + log_p, err))
         xs.append(x)
         ws.append(w)
     x, w = np.concatenate(xs), np.concatenate(ws)
+    values = [v for v, _ in narrowed]
+    merged = merge_runs(values, [e for _, e in narrowed]) if np.all(np.isfinite(values)) else (-math.inf, math.nan)
+    return boxes.shift(specs, narrowed, merged, x, w / w.sum())
+
+
+def box_shift_weighted(points, weights, ess: float, specs, factor: float = FACTOR) -> BoxShift:
+    """:class:`BoxShift` of one model from importance-weighted draws ``points`` ``(n, d)`` (natural units, in the
+    column order of ``specs``) with ``weights`` and their Kish effective sample size ``ess``; the narrowed share's
+    error as the module docstring says (one estimate: ``narrowed_runs`` holds it alone)."""
+    x, w = np.asarray(points, dtype=float), np.asarray(weights, dtype=float)
+    if x.ndim != 2 or x.shape != (w.size, len(specs)) or not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+        raise ValueError(f"weighted draws of shape {x.shape} with {w.size} weights: expected (n, {len(specs)}) "
+                         "points and n finite, non-negative weights, not all zero")  # fmt: skip
+    if not ess >= 1.0:
+        raise ValueError(f"effective sample size {ess}: expected at least 1")
+    boxes = _Boxes.of(specs, factor)
     w = w / w.sum()
-    edge = [(float(w[x[:, j] < specs[j].lower * factor].sum()), float(w[x[:, j] > specs[j].upper / factor].sum()))
-            for j in log_cols]  # fmt: skip
-    volume_wide = -sum(math.log((width[j] + 2 * lf) / width[j]) for j in log_cols)
-    return BoxShift(
-        factor=float(factor),
-        names=[specs[j].name for j in log_cols],
-        narrowed_runs=[float(v) for v in values],
-        narrowed_errs=[float(e) for e in errs],
-        narrowed=merge_runs(values, errs) if np.all(np.isfinite(values)) else (-math.inf, math.nan),
-        widened_volume=float(volume_wide),
-        edge_share=edge,
-        widened_flat=float(volume_wide + math.log1p(sum(lo + hi for lo, hi in edge))),
-    )
+    share = float(w[boxes.inside(x, specs)].sum())
+    centre = (ess * share + 1.0) / (ess + 2.0)
+    err = math.sqrt(centre * (1.0 - centre) / (ess + 2.0)) / centre
+    value = boxes.volume_narrow + (math.log(share) if share > 0 else -math.inf)
+    merged = (value, err) if math.isfinite(value) else (-math.inf, math.nan)
+    return boxes.shift(specs, [(value, err)], merged, x, w)

@@ -35,6 +35,13 @@ Where a posterior is a sheet far thinner across one parameter than along it (the
 the check integrates that parameter out per draw by quadrature and samples the others (:data:`COLLAPSED`,
 :mod:`~bayestissue.inference.sampling.collapsed`); the verdict then also says how many draws' quadratures were
 doubtful and how much weight they hold (trusted only below :data:`DOUBT_MAX`).
+
+Each check also says how its evidence moves when every log-scaled box of the material parameters is narrowed or
+widened by a factor 10 at each end (:func:`~bayestissue.analyses.box_width.box_shift_weighted`, from the estimate's
+weighted draws; a collapsed check's from its quantile draws, each with the integrated parameter drawn from its
+conditional), so that a factor's sensitivity to its boxes is known where the nested runs cannot give it. The noise
+sds are left out: integrated out over boxes a factor's two models share, their terms cancel in the factor as long as
+their posteriors lie inside the narrowed boxes (the nested runs' shares in the outermost decades: at most 2e-9).
 """
 
 from __future__ import annotations
@@ -46,6 +53,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from bayestissue.analyses.box_width import BoxShift, box_shift_weighted
 from bayestissue.analyses.model_choice import (
     CANDIDATES,
     DATASETS,
@@ -66,7 +74,7 @@ from bayestissue.inference.sampling.importance import (
     pooled_unit_draws,
 )
 from bayestissue.inference.sampling.nested import RunPhases, nested_target
-from bayestissue.io.records import read_record, write_record
+from bayestissue.io.records import RecordError, read_record, write_record
 from bayestissue.paper import MIRROR_TIES
 
 __all__ = [
@@ -187,7 +195,7 @@ class EvidenceCheck:
     :class:`~bayestissue.inference.sampling.importance.ImportanceEvidence` says; ``quantiles[j]`` the 5 / 50 / 95 %
     of sampled material parameter ``names[j]`` under the importance weights (folded where families are
     exchangeable); ``swapped`` the two parameter groups the proposal was symmetrised over (:func:`mirror_swap`), or
-    none."""
+    none; ``box`` the evidence under narrowed and widened log boxes of the material parameters (module docstring)."""
 
     model: str
     numbers_hash: str
@@ -211,6 +219,7 @@ class EvidenceCheck:
     verdict: str
     quantiles: list[list[float]]
     swapped: list[list[str]]
+    box: BoxShift
 
 
 @dataclass(frozen=True)
@@ -240,6 +249,17 @@ class CheckCase:
                 "grade": evidence_strength(abs(log_b), err), "trusted": trusted,
                 "decides": evidence_decides(log_b, err, trusted)}  # fmt: skip
 
+    def box_moves(self, a: str, b: str) -> dict[str, tuple[float, float]]:
+        """How :math:`\\ln B` of ``a`` over ``b`` moves (value, error) when every log box is narrowed
+        (``"narrowed"``) or widened (``"widened_volume"``, ``"widened_flat"``; no Monte Carlo error), as
+        :meth:`~bayestissue.analyses.model_choice.DataChoice.log_bayes_moves` says for the nested runs."""
+        x, y = self.checks[a].box, self.checks[b].box
+        return {
+            "narrowed": (x.narrowed[0] - y.narrowed[0], float(np.hypot(x.narrowed[1], y.narrowed[1]))),
+            "widened_volume": (x.widened_volume - y.widened_volume, 0.0),
+            "widened_flat": (x.widened_flat - y.widened_flat, 0.0),
+        }
+
 
 @dataclass(frozen=True)
 class EvidenceCheckRecord:
@@ -247,7 +267,7 @@ class EvidenceCheckRecord:
     :data:`~bayestissue.analyses.model_choice.DATASETS` order."""
 
     SCHEMA: ClassVar[str] = "bayestissue.evidence_check"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
     mode: str
     cases: dict[str, CheckCase]
 
@@ -393,6 +413,7 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
         pick = gen.choice(res.n_draws, size=COLLAPSED_SETTINGS[mode]["quantile_draws"], p=wn / wn.sum())
         unit, wn = line.draw(log_l_unit, res.unit[pick], gen), np.full(pick.size, 1.0 / pick.size)
     x = prior(unit)
+    box = box_shift_weighted(x, wn, res.ess, problem.parameters.sampled[:n_dim])
     padded = np.zeros((x.shape[0], problem.ndim))
     padded[:, :n_dim] = x
     folded = problem.canonical(padded)[:, :n_dim]
@@ -406,7 +427,7 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
                          n_draws=res.n_draws, calls=res.n_calls if collapsed is None else line.calls,
                          failed=res.n_failed, time_s=res.time_s, adapt_log_z=list(res.adapt_log_z),
                          trusted=trusted, verdict=verdict, quantiles=q,
-                         swapped=[[names[i] for i in g] for g in swap or ()])  # fmt: skip
+                         swapped=[[names[i] for i in g] for g in swap or ()], box=box)  # fmt: skip
 
 
 class DataProblems:
@@ -428,7 +449,10 @@ def cached_check(cache: Path | None, mode: str, data: str, model: str, key: str)
     None: a stage that is killed loses no model it had finished, and a check of other code is never taken."""
     if cache is None or not _cache_path(cache, mode, data, model, key).is_file():
         return None
-    rec = read_record(_cache_path(cache, mode, data, model, key), EvidenceCheckRecord)
+    try:
+        rec = read_record(_cache_path(cache, mode, data, model, key), EvidenceCheckRecord)
+    except RecordError:  # another version's record
+        return None
     found = rec.cases[data].checks[model]
     return found if found.numbers_hash == key else None
 

@@ -107,9 +107,14 @@ def _scale_quantiles(scale, check) -> list[float] | None:
 
 def _checked(nested: dict | None, check, a: str, b: str) -> dict:
     """Factor ``(a, b)`` by both estimators: the nested runs' (``nested``, :func:`_factor`; None where a model has not
-    run), the importance sampling's (None without the check), the model the two choose
+    run), the importance sampling's (None without the check; with how it moves with the boxes), the model the two
+    choose
     (:func:`~bayestissue.analyses.verdicts.evidence_choice`) and whether they are apart."""
     checked = check.factor(a, b) if check is not None and {a, b} <= check.checks.keys() else None
+    if checked is not None:  # how it moves with the boxes, from the checks' weighted draws
+        moves = check.box_moves(a, b)
+        checked = {**checked, "moves": moves, "narrowed_ok": bool(np.isfinite(moves["narrowed"][0])),
+                   "edges": [_edges(check.checks[m]) for m in (a, b)]}  # fmt: skip
     chosen, source = evidence_choice(nested, checked)
     apart = None if nested is None or checked is None else estimators_apart(
         (nested["log_b"], nested["err"]), (checked["log_b"], checked["err"]))  # fmt: skip

@@ -2,6 +2,7 @@
 hash, the committed record read back, and the quick stage end to end."""
 
 import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -123,6 +124,13 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     for model, c in rec.cases["T1"].checks.items():
         assert c.numbers_hash == check_hash("quick", ROOT / "data", "T1", model)
         assert c.n_draws == 2000 and c.calls == 3000 and len(c.quantiles) == len(c.names)
+        # how the evidence moves with the boxes: every log-uniform material parameter, from the one estimate's draws
+        specs = model_problem(ROOT / "data", "T1", model).parameters.sampled[: len(c.names)]
+        logs = [sp for sp in specs if sp.prior == "loguniform"]
+        assert c.box.names == [sp.name for sp in logs] and len(c.box.narrowed_runs) == 1
+        volume = -sum(math.log((math.log(sp.upper / sp.lower) + 2 * math.log(10)) / math.log(sp.upper / sp.lower))
+                      for sp in logs)  # fmt: skip
+        assert c.box.widened_volume == pytest.approx(volume, rel=1e-12) and c.box.widened_flat >= volume
     # the full model's families 2 and 3 are mirror images: its proposal is symmetrised over their exchange
     assert rec.cases["T1"].checks["full"].swapped == [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
     assert rec.cases["T1"].checks["mirror"].swapped == []
@@ -137,6 +145,11 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     key = rec.cases["T1"].checks["full"].numbers_hash
     assert cached_check(stage.CACHE, "quick", "T1", "full", key) == rec.cases["T1"].checks["full"]
     assert cached_check(stage.CACHE, "quick", "T1", "full", "0" * 16) is None
+    cached = stage.CACHE / f"quick_T1_full_{key}.json"  # a cached check of another record version is not taken
+    text = cached.read_text()
+    cached.write_text(text.replace(f'"version": {EvidenceCheckRecord.VERSION}', '"version": 2', 1))
+    assert cached_check(stage.CACHE, "quick", "T1", "full", key) is None
+    cached.write_text(text)
     # the importance sampler changed (the checks' hashes with it, not the nautilus runs'): the checks rerun from the
     # runs' cached draws, and give the same numbers
     for f in stage.CACHE.glob("quick_T1_*.json"):
@@ -203,6 +216,8 @@ def test_a_collapsed_check_integrates_its_parameter_out_and_reports_the_quadratu
     assert c.swapped == [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
     q = c.quantiles[c.names.index("kappa")]
     assert 0 < q[0] <= q[1] <= q[2] and np.all(np.isfinite(q))
+    # the boxes' shift from the quantile draws, kappa among them
+    assert c.box.names == ["mu", "kappa", "ginf1", "beta1", "ginf2", "beta2", "ginf3", "beta3"]
     # the line quadrature's module is in this check's hash, and in no other's
     files = data_files(ROOT / "data", "joint")
     assert c.numbers_hash == check_hash("quick", ROOT / "data", "joint", "full")
