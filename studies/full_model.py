@@ -118,7 +118,8 @@ def _summary(case: DataChoice, mode: str) -> str:
     lines = [f"# The {names} on {case.data} ({mode}{wait})", ""]
     for a, b in case.factors_run:
         log_b, err = case.log_bayes(a, b)
-        lines.append(f"log Bayes factor {a} over {b}: {log_b:.2f} +- {err:.2f}\n")
+        undecided = "" if case.factor_decides(a, b) else " (a model's runs disagree on its evidence: no verdict)"
+        lines.append(f"log Bayes factor {a} over {b}: {log_b:.2f} +- {err:.2f}{undecided}\n")
         moves = case.log_bayes_moves(a, b)
         if moves is not None:
             lines.append(f"Every log box narrowed by {FACTOR:g} at each end: ln B {moves['narrowed'][0]:+.2f} +- "

@@ -284,6 +284,11 @@ class DataChoice:
         m, f = self.models[a].merged, self.models[b].merged
         return float(m[0] - f[0]), float(np.hypot(m[1], f[1]))
 
+    def factor_decides(self, a: str = "mirror", b: str = "full") -> bool:
+        """Whether :math:`\\ln B` of ``a`` over ``b`` can decide anything: both models' runs agree on the evidence
+        (:attr:`ModelEvidence.runs_agree`); otherwise its merged error understates what the runs' scatter shows."""
+        return self.models[a].runs_agree and self.models[b].runs_agree
+
     def log_bayes_moves(self, a: str = "mirror", b: str = "full") -> dict[str, tuple[float, float]] | None:
         """How :math:`\\ln B` of ``a`` over ``b`` moves (value, error) when every log box is narrowed
         (``"narrowed"``) or widened (``"widened_volume"``: the volume terms alone; ``"widened_flat"``: the flat

@@ -32,8 +32,10 @@ def _evidence(ax, case) -> None:
     ax.set_ylabel("log evidence per run", fontsize=FONT["label"])
     pairs = [(a, b) for a, b in case.factors if {a, b} <= case.models.keys()]
     if pairs:
-        ax.set_title("\n".join(f"ln B {a} over {b} = {v:.2f} +- {s:.2f}" for a, b in pairs
-                               for v, s in [case.log_bayes(a, b)]), fontsize=FONT["title"])  # fmt: skip
+        lines = [f"ln B {a} over {b} = {v:.2f} +- {s:.2f}" + ("" if case.factor_decides(a, b) else
+                                                                " (runs disagree: no verdict)")
+                 for a, b in pairs for v, s in [case.log_bayes(a, b)]]  # fmt: skip
+        ax.set_title("\n".join(lines), fontsize=FONT["title"])
     ax.margins(y=0.08)
     # below the axes: runs that lost the peak sit far below the others, so no corner of the panel is always free
     ax.legend(fontsize=FONT["legend"] - 1, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)

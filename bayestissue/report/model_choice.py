@@ -72,7 +72,7 @@ def _factor(case: DataChoice, a: str, b: str) -> dict:
     log_b, err = case.log_bayes(a, b)
     pair = (case.models[a], case.models[b])
     moves = case.log_bayes_moves(a, b)
-    consistent = all(e.runs_agree for e in pair)
+    consistent = case.factor_decides(a, b)
     return {
         "a": a,
         "b": b,

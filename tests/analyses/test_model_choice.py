@@ -271,3 +271,21 @@ def test_the_summary_of_a_data_set_names_its_models_and_those_not_run_yet(stage,
     text = stage._summary(joint, "full")
     assert text.startswith("# The mirror model on joint (full; not run yet: full, scale)\n")
     assert "log Bayes factor" not in text
+
+
+def test_a_factor_whose_runs_disagree_is_flagged_in_the_title_and_the_summary(stage, record, tmp_path):
+    """The merged error of runs that disagree understates their scatter: the factor's title and summary line say it
+    decides nothing, and say nothing where both models' runs agree."""
+    case = record.cases["T1"]
+    agree = {n: dataclasses.replace(e, finished=[True] * 4, peak_reached=[True] * 4, log_z_p=0.5)
+             for n, e in case.models.items()}  # fmt: skip
+    good = MC.DataChoice(data="T1", seed=case.seed, models=agree)
+    assert good.factor_decides()
+    bad = MC.DataChoice(
+        data="T1", seed=case.seed, models={**agree, "full": dataclasses.replace(agree["full"], log_z_p=1e-5)}
+    )
+    assert not bad.factor_decides() and not bad.factor_decides("full", "mirror")
+    for c, flagged in ((good, False), (bad, True)):
+        title = plot_model_choice(c, "full", tmp_path / "f.png").axes[0].get_title()
+        assert ("(runs disagree: no verdict)" in title) is flagged
+        assert ("no verdict" in stage._summary(c, "full")) is flagged
