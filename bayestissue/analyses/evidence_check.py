@@ -31,10 +31,14 @@ posterior has two mirror copies of equal mass, of which a nautilus run may find 
 of its weight at ginf2 > ginf3). The proposal is then symmetrised over that exchange (:func:`mirror_swap`, checked
 on the run's draws before it is used).
 
-Where a posterior is a sheet far thinner across one parameter than along it (the joint full model across kappa),
-the check integrates that parameter out per draw by quadrature and samples the others (:data:`COLLAPSED`,
-:mod:`~bayestissue.inference.sampling.collapsed`); the verdict then also says how many draws' quadratures were
-doubtful and how much weight they hold (trusted only below :data:`DOUBT_MAX`).
+Where a posterior is a sheet far thinner across one parameter than along it (the joint full model across kappa;
+T1's full model across the softer fibre family's beta), the check integrates that parameter out per draw by
+quadrature and samples the others (:data:`COLLAPSED`, :mod:`~bayestissue.inference.sampling.collapsed`). Where that
+parameter belongs to one of the mirror families, which family is the softer depends on the labelling, so the check
+is restricted to one labelling (family 2 not softer than family 3, by ginf; the nautilus draws folded onto it), where
+the evidence is half the whole box's (the likelihood and the prior are symmetric under the exchange). The verdict
+then also says how many draws' quadratures were doubtful and how much weight they hold (trusted only below
+:data:`DOUBT_MAX`).
 
 Each check also says how its evidence moves when every log-scaled box of the material parameters is narrowed or
 widened by a factor 10 at each end (:func:`~bayestissue.analyses.box_width.box_shift_weighted`, from the estimate's
@@ -53,6 +57,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from bayestissue._validation import ValidationError
 from bayestissue.analyses.box_width import BoxShift, box_shift_weighted
 from bayestissue.analyses.model_choice import (
     CANDIDATES,
@@ -65,7 +70,7 @@ from bayestissue.analyses.model_choice import (
 from bayestissue.analyses.verdicts import evidence_decides, evidence_strength
 from bayestissue.inference import NestedOptions, sample_nested
 from bayestissue.inference.evidence import LEVELS, weighted_quantile
-from bayestissue.inference.ordering import swapped
+from bayestissue.inference.ordering import folded, swapped
 from bayestissue.inference.sampling.collapsed import fit_line
 from bayestissue.inference.sampling.importance import (
     ImportanceOptions,
@@ -80,6 +85,7 @@ from bayestissue.paper import MIRROR_TIES
 __all__ = [
     "CHECK_SEED",
     "COLLAPSED",
+    "Collapse",
     "COLLAPSED_SETTINGS",
     "DOUBT_MAX",
     "PROPOSAL_ERROR",
@@ -137,6 +143,17 @@ CHECK_SETTINGS = {
 }
 
 
+@dataclass(frozen=True)
+class Collapse:
+    """How a check integrates one parameter out (:mod:`~bayestissue.inference.sampling.collapsed`): ``param``, the
+    line quadrature's finer grids ``zoom``, and whether the check is restricted to one labelling of the mirror
+    families (``one_labelling``: family 2's ginf not below family 3's, so that ``param`` is the softer family's)."""
+
+    param: str
+    zoom: int = 0
+    one_labelling: bool = False
+
+
 #: The checks whose likelihood has one parameter integrated out by quadrature before importance sampling
 #: (:mod:`~bayestissue.inference.sampling.collapsed`), by (data set, model): the parameter. The joint full model's
 #: posterior is a curved sheet about 2e-4 thick in logit units, mostly across kappa (Hessian at its heaviest draws:
@@ -146,8 +163,13 @@ CHECK_SETTINGS = {
 #: line's regression folded over the mirror exchange, 907.38 +- 0.09 with k-hat 0.54, but its doubtful quadratures
 #: hold 3.6 % of the weight (docs/verification.md, stop 75); with the re-brackets (stop 76) of 4 000 draws of the
 #: proposal fitted to the nautilus draws 117 stay doubtful where 410 were, and those 410 gained 71 nats (median);
-#: the stage's run, 908.02 +- 0.17, k-hat 0.57, ESS 33 of 30 000, doubtful weight 5e-96: TRUSTED.
-COLLAPSED = {("joint", "full"): "kappa"}
+#: the stage's run, 908.02 +- 0.17, k-hat 0.57, ESS 33 of 30 000, doubtful weight 5e-96: TRUSTED. T1's full model is
+#: a sheet too (Hessian at 8 draws: largest eigenvalue 1.3-2.2e7, the next 6-8e4), across one family's ginf and beta
+#: (0.88, -0.47); 48 components over all 11 left k-hat at 1.74 after 40 rounds (988.06 +- 0.19, NOT TRUSTED). On one
+#: labelling, family 3 the softer, its beta3 follows the others within 0.65 in logit (quadratic regression, 0.068
+#: typical), and with two finer grids the Newton steps lose 3 of 3 000 points, not 1 442 (docs/verification.md,
+#: stop 77). The stage's run: 989.22 +- 0.35, k-hat 1.17, ESS 8 of 30 000: still NOT TRUSTED (stop 78).
+COLLAPSED = {("joint", "full"): Collapse("kappa"), ("T1", "full"): Collapse("beta3", zoom=2, one_labelling=True)}
 #: A collapsed check's settings per mode: its importance sampling (over the check's own settings; each point costs
 #: about 71 likelihood calls, :class:`~bayestissue.inference.sampling.collapsed.LineQuadrature`, so the rounds and
 #: the estimate have fewer draws: 5 000 a round and 30 000 in the estimate are 0.36 M and 2.1 M calls, at most 24
@@ -380,14 +402,21 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
 
     swap = mirror_swap(names, log_l_unit, u[np.argsort(w)[::-1]])
     iopts = ImportanceOptions(**settings["importance"])
-    collapsed = COLLAPSED.get((data, model))
-    if collapsed is None:
+    collapse = COLLAPSED.get((data, model))
+    collapsed = None if collapse is None else collapse.param
+    if collapse is None:
         target, draws, proposal_swap = log_l_unit, u, swap
     else:  # one parameter integrated out by quadrature, the proposal over the others (COLLAPSED)
         iopts = ImportanceOptions(**{**settings["importance"], **COLLAPSED_SETTINGS[mode]["importance"]})
         k = names.index(collapsed)
-        proposal_swap = None if swap is None else tuple(tuple(i - (i > k) for i in g) for g in swap)
-        line = fit_line(u, w, k, swap=proposal_swap, seed=seed)
+        shifted = None if swap is None else tuple(tuple(i - (i > k) for i in g) for g in swap)
+        labelling = None
+        if collapse.one_labelling:  # the draws folded onto family 2 not softer; the proposal not symmetrised
+            if swap is None:
+                raise ValidationError(f"{data} {model} check", "one labelling", "a model with mirror families")
+            u, labelling, shifted, swap = folded(u, swap), (shifted[0][0], shifted[1][0]), None, None
+        proposal_swap = shifted
+        line = fit_line(u, w, k, swap=proposal_swap, seed=seed, zoom=collapse.zoom, labelling=labelling)
         target, draws = line.collapsed(log_l_unit), np.delete(u, k, axis=1)
         progress(f"{data} {model}: {collapsed} integrated out by quadrature (regression's largest residual "
                  f"{line.residual_max:.3g}, bracket +-{line.window:.3g})")  # fmt: skip
@@ -416,8 +445,8 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
     box = box_shift_weighted(x, wn, res.ess, problem.parameters.sampled[:n_dim])
     padded = np.zeros((x.shape[0], problem.ndim))
     padded[:, :n_dim] = x
-    folded = problem.canonical(padded)[:, :n_dim]
-    q = [weighted_quantile(folded[:, j], wn, LEVELS).tolist() for j in range(n_dim)]
+    canon = problem.canonical(padded)[:, :n_dim]
+    q = [weighted_quantile(canon[:, j], wn, LEVELS).tolist() for j in range(n_dim)]
     progress(f"{data} {model}: {verdict}")
     return EvidenceCheck(model=model, numbers_hash=check_hash(mode, data_dir, data, model),
                          names=names, proposal_log_z=run.log_z, proposal_calls=run.calls,
@@ -425,7 +454,8 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
                          log_z_err=res.log_z_err, batch_log_z=res.batch_log_z.tolist(),
                          batch_err=res.batch_err.tolist(), batch_p=res.batch_p, k_hat=res.k_hat, ess=res.ess,
                          n_draws=res.n_draws, calls=res.n_calls if collapsed is None else line.calls,
-                         failed=res.n_failed, time_s=res.time_s, adapt_log_z=list(res.adapt_log_z),
+                         failed=res.n_failed - (0 if collapse is None else line.outside), time_s=res.time_s,
+                         adapt_log_z=list(res.adapt_log_z),
                          trusted=trusted, verdict=verdict, quantiles=q,
                          swapped=[[names[i] for i in g] for g in swap or ()], box=box)  # fmt: skip
 

@@ -123,7 +123,7 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     assert rec.mode == "quick" and list(rec.cases) == ["T1"] and list(rec.cases["T1"].checks) == ["mirror", "full"]
     for model, c in rec.cases["T1"].checks.items():
         assert c.numbers_hash == check_hash("quick", ROOT / "data", "T1", model)
-        assert c.n_draws == 2000 and c.calls == 3000 and len(c.quantiles) == len(c.names)
+        assert c.n_draws == (2000 if model == "mirror" else 500) and len(c.quantiles) == len(c.names)
         # how the evidence moves with the boxes: every log-uniform material parameter, from the one estimate's draws
         specs = model_problem(ROOT / "data", "T1", model).parameters.sampled[: len(c.names)]
         logs = [sp for sp in specs if sp.prior == "loguniform"]
@@ -131,9 +131,13 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
         volume = -sum(math.log((math.log(sp.upper / sp.lower) + 2 * math.log(10)) / math.log(sp.upper / sp.lower))
                       for sp in logs)  # fmt: skip
         assert c.box.widened_volume == pytest.approx(volume, rel=1e-12) and c.box.widened_flat >= volume
-    # the full model's families 2 and 3 are mirror images: its proposal is symmetrised over their exchange
-    assert rec.cases["T1"].checks["full"].swapped == [["ginf2", "gamma2", "beta2"], ["ginf3", "gamma3", "beta3"]]
-    assert rec.cases["T1"].checks["mirror"].swapped == []
+    # the mirror model's plain estimate: 1 000 adaptation draws and 2 000 in the estimate; the full model's beta3
+    # integrated out on one labelling of its mirror families (COLLAPSED: 250 and 500 draws), so no proposal
+    # symmetrised over them
+    mirror, full = rec.cases["T1"].checks["mirror"], rec.cases["T1"].checks["full"]
+    assert mirror.calls == 3000 and mirror.swapped == [] and full.swapped == []
+    assert "beta3 by quadrature: " in full.verdict and "2 finer grids" in full.verdict
+    assert "draws off the labelling: no calls" in full.verdict
     capsys.readouterr()
     assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
     assert capsys.readouterr().out.count("matches the current code") == 2

@@ -31,7 +31,13 @@ The inner integral, per point, in three steps (all points of a batch at once, so
    brackets of ``grid`` points, each centred on the edge the last one hit and twice as wide. A proposal's draws
    away from the posterior can have their peak far from the prediction: on the joint full model, of 100 draws of
    the fitted proposal whose first bracket (+-0.07) missed, the peak lay 0.07-1.5 away, and the 40 heaviest draws
-   had one peak within +-0.5, 0.0002-0.026 from the prediction (stop 76).
+   had one peak within +-0.5, 0.0002-0.026 from the prediction (stop 76). Then ``zoom`` finer grids, each of
+   ``grid`` points across :math:`\\pm` one spacing of the last around its best point: where the conditional is far
+   narrower than the bracket's spacing (T1's full model: its conditional sd in the softer fibre family's
+   :math:`z_\\beta` is a small fraction of the 0.04 spacing of the +-0.81 bracket its regression's residuals need),
+   the Newton steps' first differences, 0.3 of the spacing wide, straddle the peak and throw the point away; on 3 000
+   draws of T1's fitted proposal, :math:`g'' \\ge 0` after the steps at 1 442 points without finer grids, at 3 with
+   two (docs/verification.md, stop 77).
 2. **Newton.** ``newton`` steps :math:`z_k \\leftarrow z_k - g'/g''` from central differences of step
    :math:`h = 0.3\\,s` (:math:`s = (-g'')^{-1/2}`, the conditional sd), each step clipped to :math:`\\pm 20 h`;
    where :math:`g'' \\ge 0`, a step of :math:`20 h` uphill; the first :math:`h` is 0.3 of the last bracket's
@@ -45,11 +51,20 @@ The inner integral, per point, in three steps (all points of a batch at once, so
    :math:`\\pm 12 s` to 1.4e-7 in :math:`\\log L_c` (8 posterior points; :math:`g` drops 61 nats at
    :math:`\\pm 12 s`, against 72 for a Gaussian).
 
+**One labelling.** Where the coordinate to integrate out belongs to one of two exchangeable groups (the full model's
+fibre families 2 and 3), the sheet is thin across the *softer* family's :math:`\\beta`, which is family 2's in one
+labelling and family 3's in the other. With ``labelling = (a, b)`` (indices among the other coordinates of the two
+groups' keys) only points with :math:`z_a \\ge z_b` are integrated and the others have zero likelihood, without a
+call; the likelihood and the box prior are symmetric under the exchange, so that region holds half the evidence and
+:math:`\\log 2` is added inside it (the ordered prior's factor :math:`n!` of :mod:`bayestissue.inference.ordering`).
+The regression is fitted to draws folded onto that labelling (by the caller,
+:func:`~bayestissue.inference.ordering.folded`).
+
 A point whose peak lands on the last bracket's edge or whose :math:`g''` is not negative after the Newton steps is
 counted (:attr:`LineQuadrature.edge`, :attr:`LineQuadrature.flat`): there the quadrature may miss mass, and the
-estimate is only as good as those counts are small. Cost: ``grid + 3 newton + nodes`` likelihood calls a point
-(41 + 18 + 12 = 71 by default), and ``grid`` more for each re-bracket: a draw costs about 70 of the plain
-estimator's.
+estimate is only as good as those counts are small. Cost: ``(1 + zoom) grid + 3 newton + nodes`` likelihood calls
+a point (41 + 18 + 12 = 71 by default, 153 with two finer grids), and ``grid`` more for each re-bracket: a draw
+costs about 70-150 of the plain estimator's.
 """
 
 from __future__ import annotations
@@ -86,8 +101,10 @@ class LineQuadrature:
     ``coef``: the quadratic regression predicting :math:`z_k` (:func:`fit_line`) from the other coordinates, folded
     over ``swap`` (two index groups among them, or None); ``residual_max`` its largest residual over the draws it
     was fitted to; ``window``, ``grid``, ``rebracket``, ``newton``, ``nodes`` the three steps' settings.
-    ``edge``, ``flat``, ``points``: points whose peak was on a bracket's edge after the re-brackets, whose
-    :math:`g''` stayed non-negative, and all points, counted over every call; ``calls`` the likelihood calls they
+    ``zoom`` the finer grids after the brackets; ``labelling`` the two keys' indices of one labelling (module
+    docstring) or None. ``edge``, ``flat``, ``points``: points whose peak was on a bracket's edge after the
+    re-brackets, whose :math:`g''` stayed non-negative, and all points integrated, counted over every call;
+    ``outside``: points outside the labelling (zero likelihood, no call); ``calls`` the likelihood calls they
     took; ``doubtful``: per call, which of its points were either (:meth:`last_doubtful`)."""
 
     k: int
@@ -98,10 +115,13 @@ class LineQuadrature:
     newton: int = 6
     nodes: int = 12
     rebracket: int = 4
+    zoom: int = 0
     swap: tuple | None = None
+    labelling: tuple[int, int] | None = None
     edge: int = field(default=0, init=False)
     flat: int = field(default=0, init=False)
     points: int = field(default=0, init=False)
+    outside: int = field(default=0, init=False)
     calls: int = field(default=0, init=False)
     doubtful: list = field(default_factory=list, init=False, repr=False)
 
@@ -109,8 +129,8 @@ class LineQuadrature:
         for name, ok, expected in (("window", self.window >= 1.5 * self.residual_max,
                                     f">= 1.5 times the regression's largest residual, {1.5 * self.residual_max:.3g}"),
                                    ("grid", self.grid >= 3, "an integer >= 3"), ("newton", self.newton >= 1, ">= 1"),
-                                   ("nodes", self.nodes >= 2, ">= 2"),
-                                   ("rebracket", self.rebracket >= 0, ">= 0")):  # fmt: skip
+                                   ("nodes", self.nodes >= 2, ">= 2"), ("rebracket", self.rebracket >= 0, ">= 0"),
+                                   ("zoom", self.zoom >= 0, ">= 0")):  # fmt: skip
             if not ok:
                 raise ValidationError(f"line quadrature {name}", getattr(self, name), expected)
 
@@ -152,6 +172,9 @@ class LineQuadrature:
             i = np.flatnonzero(edge)
             half[i] *= 2.0
             m[i], edge[i] = self._bracket(log_l_unit, z_rest[i], m[i], half[i])
+        for _ in range(self.zoom):  # a finer grid across +- one spacing of the last, around its best point
+            half = 2.0 * half / (self.grid - 1)
+            m, _ = self._bracket(log_l_unit, z_rest, m, half)
         h = 0.3 * 2.0 * half / (self.grid - 1)
         for _ in range(self.newton):
             f = self._g(log_l_unit, np.repeat(z_rest, 3, axis=0), (m[:, None] + h[:, None] * _STENCIL).ravel())
@@ -167,19 +190,34 @@ class LineQuadrature:
             h = np.clip(0.3 * s, 1e-8, half)
         return m, s, edge, ~concave
 
+    def inside(self, z_rest: np.ndarray) -> np.ndarray:
+        """Which points ``z_rest`` ``(n, d - 1)`` lie on the :attr:`labelling` (all without one)."""
+        if self.labelling is None:
+            return np.ones(z_rest.shape[0], dtype=bool)
+        a, b = self.labelling
+        return z_rest[:, a] >= z_rest[:, b]
+
     def __call__(self, log_l_unit: Callable, unit_rest: np.ndarray) -> np.ndarray:
-        """:math:`\\log L_c` at unit-cube points ``unit_rest`` ``(n, d - 1)`` (step 3)."""
-        z_rest = _logit(unit_rest)
-        n = z_rest.shape[0]
-        m, s, edge, flat = self.peaks(log_l_unit, z_rest)
-        x, w = np.polynomial.hermite.hermgauss(self.nodes)
-        nodes = (m[:, None] + np.sqrt(2.0) * s[:, None] * x[None, :]).ravel()
-        g = self._g(log_l_unit, np.repeat(z_rest, self.nodes, axis=0), nodes).reshape(n, self.nodes)
-        self.edge += int(edge.sum())
-        self.flat += int(flat.sum())
+        """:math:`\\log L_c` at unit-cube points ``unit_rest`` ``(n, d - 1)`` (step 3); with a :attr:`labelling`,
+        :math:`\\log 2 + \\log L_c` on it and :math:`-\\infty` off it."""
+        z_all = _logit(unit_rest)
+        inside = self.inside(z_all)
+        z_rest, n = z_all[inside], int(inside.sum())
+        out, doubtful = np.full(z_all.shape[0], -np.inf), np.zeros(z_all.shape[0], dtype=bool)
+        if n:
+            m, s, edge, flat = self.peaks(log_l_unit, z_rest)
+            x, w = np.polynomial.hermite.hermgauss(self.nodes)
+            nodes = (m[:, None] + np.sqrt(2.0) * s[:, None] * x[None, :]).ravel()
+            g = self._g(log_l_unit, np.repeat(z_rest, self.nodes, axis=0), nodes).reshape(n, self.nodes)
+            out[inside] = np.log(np.sqrt(2.0) * s) + logsumexp(g + x[None, :] ** 2, b=w[None, :], axis=1)
+            out[inside] += 0.0 if self.labelling is None else np.log(2.0)
+            doubtful[inside] = edge | flat
+            self.edge += int(edge.sum())
+            self.flat += int(flat.sum())
         self.points += n
-        self.doubtful.append(edge | flat)
-        return np.log(np.sqrt(2.0) * s) + logsumexp(g + x[None, :] ** 2, b=w[None, :], axis=1)
+        self.outside += z_all.shape[0] - n
+        self.doubtful.append(doubtful)
+        return out
 
     def collapsed(self, log_l_unit: Callable) -> Callable[[np.ndarray], np.ndarray]:
         """:math:`\\log L_c` as a batched log-likelihood of the ``d - 1`` other unit-cube coordinates (what
@@ -203,17 +241,20 @@ class LineQuadrature:
 
     def text(self) -> str:
         """One line: the settings and the counts."""
+        zoom = f", {self.zoom} finer grids" if self.zoom else ""
+        off = f" ({self.outside} draws off the labelling: no calls)" if self.labelling is not None else ""
         return (f"{self.grid}-point bracket of +-{self.window:.3g} (largest regression residual "
-                f"{self.residual_max:.3g}; at most {self.rebracket} re-brackets), {self.newton} Newton steps, "
+                f"{self.residual_max:.3g}; at most {self.rebracket} re-brackets){zoom}, {self.newton} Newton steps, "
                 f"{self.nodes} Gauss-Hermite nodes: peak on the bracket's edge at {self.edge} of {self.points} "
-                f"points, not concave at {self.flat}")  # fmt: skip
+                f"points{off}, not concave at {self.flat}")  # fmt: skip
 
 
 def fit_line(unit_draws, weights, k: int, *, swap=None, n: int = 20_000, seed: int = 0, **settings) -> LineQuadrature:
     """The :class:`LineQuadrature` of coordinate ``k`` whose predictor is a quadratic least-squares regression of
     :math:`z_k` on the other logit coordinates (folded over ``swap``, two index groups among those ``d - 1``, when
     given), fitted to ``n`` draws resampled (multinomially, ``seed``) from the weighted posterior draws
-    ``unit_draws`` ``(N, d)``; ``settings`` pass on (window, grid, newton, nodes)."""
+    ``unit_draws`` ``(N, d)``; ``settings`` pass on (window, grid, newton, nodes, rebracket, zoom, labelling: with a
+    labelling, the draws must lie on it)."""
     u = np.asarray(unit_draws, dtype=float)
     w = np.asarray(weights, dtype=float)
     if u.ndim != 2 or not 0 <= k < u.shape[1] or w.shape != (u.shape[0],) or not np.isclose(w.sum(), 1.0):
