@@ -145,9 +145,8 @@ CHECK_SETTINGS = {
 
 @dataclass(frozen=True)
 class Collapse:
-    """How a check integrates one parameter out (:mod:`~bayestissue.inference.sampling.collapsed`): ``param``, the
-    line quadrature's finer grids ``zoom``, and whether the check is restricted to one labelling of the mirror
-    families (``one_labelling``: family 2's ginf not below family 3's, so that ``param`` is the softer family's)."""
+    """How a check integrates ``param`` out (:mod:`~bayestissue.inference.sampling.collapsed`): ``zoom`` finer grids,
+    and ``one_labelling``: only family 2's ginf not below family 3's, so that ``param`` is the softer family's."""
 
     param: str
     zoom: int = 0
@@ -163,12 +162,9 @@ class Collapse:
 #: line's regression folded over the mirror exchange, 907.38 +- 0.09 with k-hat 0.54, but its doubtful quadratures
 #: hold 3.6 % of the weight (docs/verification.md, stop 75); with the re-brackets (stop 76) of 4 000 draws of the
 #: proposal fitted to the nautilus draws 117 stay doubtful where 410 were, and those 410 gained 71 nats (median);
-#: the stage's run, 908.02 +- 0.17, k-hat 0.57, ESS 33 of 30 000, doubtful weight 5e-96: TRUSTED. T1's full model is
-#: a sheet too (Hessian at 8 draws: largest eigenvalue 1.3-2.2e7, the next 6-8e4), across one family's ginf and beta
-#: (0.88, -0.47); 48 components over all 11 left k-hat at 1.74 after 40 rounds (988.06 +- 0.19, NOT TRUSTED). On one
-#: labelling, family 3 the softer, its beta3 follows the others within 0.65 in logit (quadratic regression, 0.068
-#: typical), and with two finer grids the Newton steps lose 3 of 3 000 points, not 1 442 (docs/verification.md,
-#: stop 77). The stage's run: 989.22 +- 0.35, k-hat 1.17, ESS 8 of 30 000: still NOT TRUSTED (stop 78).
+#: the stage's run, 908.02 +- 0.17, k-hat 0.57, ESS 33 of 30 000, doubtful weight 5e-96: TRUSTED. T1's full model
+#: is a sheet across the softer family's ginf and beta (k-hat 1.74 over all 11); with beta3 integrated out on one
+#: labelling, 989.22 +- 0.35, k-hat 1.17: still NOT TRUSTED (docs/verification.md, stops 77-78).
 COLLAPSED = {("joint", "full"): Collapse("kappa"), ("T1", "full"): Collapse("beta3", zoom=2, one_labelling=True)}
 #: A collapsed check's settings per mode: its importance sampling (over the check's own settings; each point costs
 #: about 71 likelihood calls, :class:`~bayestissue.inference.sampling.collapsed.LineQuadrature`, so the rounds and
