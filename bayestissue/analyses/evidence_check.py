@@ -399,22 +399,21 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
     swap = mirror_swap(names, log_l_unit, u[np.argsort(w)[::-1]])
     iopts = ImportanceOptions(**settings["importance"])
     collapse = COLLAPSED.get((data, model))
-    collapsed = None if collapse is None else collapse.param
     if collapse is None:
         target, draws, proposal_swap = log_l_unit, u, swap
     else:  # one parameter integrated out by quadrature, the proposal over the others (COLLAPSED)
         iopts = ImportanceOptions(**{**settings["importance"], **COLLAPSED_SETTINGS[mode]["importance"]})
-        k = names.index(collapsed)
-        shifted = None if swap is None else tuple(tuple(i - (i > k) for i in g) for g in swap)
+        k = names.index(collapse.param)
+        proposal_swap = None if swap is None else tuple(tuple(i - (i > k) for i in g) for g in swap)
         labelling = None
         if collapse.one_labelling:  # the draws folded onto family 2 not softer; the proposal not symmetrised
             if swap is None:
                 raise ValidationError(f"{data} {model} check", "one labelling", "a model with mirror families")
-            u, labelling, shifted, swap = folded(u, swap), (shifted[0][0], shifted[1][0]), None, None
-        proposal_swap = shifted
+            labelling = (proposal_swap[0][0], proposal_swap[1][0])
+            u, proposal_swap, swap = folded(u, swap), None, None
         line = fit_line(u, w, k, swap=proposal_swap, seed=seed, zoom=collapse.zoom, labelling=labelling)
         target, draws = line.collapsed(log_l_unit), np.delete(u, k, axis=1)
-        progress(f"{data} {model}: {collapsed} integrated out by quadrature (regression's largest residual "
+        progress(f"{data} {model}: {collapse.param} integrated out by quadrature (regression's largest residual "
                  f"{line.residual_max:.3g}, bracket +-{line.window:.3g})")  # fmt: skip
     proposal = fit_unit_proposal(draws, iopts, weights=w, seed=seed, swap=proposal_swap)
 
@@ -426,11 +425,11 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
     res = importance_evidence(target, proposal, iopts, rng=seed, progress=rounds)
     wn = np.exp(res.log_w)
     trusted, verdict = res.trusted, res.verdict()
-    if collapsed is None:
+    if collapse is None:
         unit = res.unit
     else:  # quantiles from draws resampled by weight, each with the integrated parameter from its conditional
         share = float(wn[line.last_doubtful(res.n_draws)].sum())
-        verdict += f"; {quadrature_label(collapsed)}{line.text()}, holding {share:.2g} of the weight"
+        verdict += f"; {quadrature_label(collapse.param)}{line.text()}, holding {share:.2g} of the weight"
         if share >= DOUBT_MAX:
             trusted = False
             verdict += f" (NOT TRUSTED: at least {DOUBT_MAX:g})"
@@ -449,7 +448,7 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
                          proposal_s=run.time_s, log_z=res.log_z,
                          log_z_err=res.log_z_err, batch_log_z=res.batch_log_z.tolist(),
                          batch_err=res.batch_err.tolist(), batch_p=res.batch_p, k_hat=res.k_hat, ess=res.ess,
-                         n_draws=res.n_draws, calls=res.n_calls if collapsed is None else line.calls,
+                         n_draws=res.n_draws, calls=res.n_calls if collapse is None else line.calls,
                          failed=res.n_failed - (0 if collapse is None else line.outside), time_s=res.time_s,
                          adapt_log_z=list(res.adapt_log_z),
                          trusted=trusted, verdict=verdict, quantiles=q,

@@ -179,10 +179,10 @@ def model_choice_context(
         f"{d} {m}" for d, c in check.cases.items() for m, e in c.checks.items()
         if check_now.get(d, {}).get(m) != e.numbers_hash]  # fmt: skip
     quadrature = [] if check is None else [
-        {"data": d, "model": m, "param": COLLAPSED[d, m].param, "one_labelling": COLLAPSED[d, m].one_labelling,
-         "text": e.verdict.split(quadrature_label(COLLAPSED[d, m].param))[1]}
-        for d, c in check.cases.items() for m, e in c.checks.items()
-        if (d, m) in COLLAPSED and quadrature_label(COLLAPSED[d, m].param) in e.verdict]  # fmt: skip
+        {"data": d, "model": m, "param": q.param, "one_labelling": q.one_labelling,
+         "text": e.verdict.split(quadrature_label(q.param))[1]}
+        for d, c in check.cases.items() for m, e in c.checks.items() for q in [COLLAPSED.get((d, m))]
+        if q is not None and quadrature_label(q.param) in e.verdict]  # fmt: skip
     return {"record": rec, "cases": cases, "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR,
             "check": check, "check_stale": stale, "proposal_error": PROPOSAL_ERROR,
             "quadrature": quadrature}  # fmt: skip
