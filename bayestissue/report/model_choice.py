@@ -47,6 +47,28 @@ def _rows(case: DataChoice, I: IdentifiabilityRecord) -> list[dict]:
     return rows
 
 
+def _check_rows(case, I: IdentifiabilityRecord) -> list[dict]:
+    """Per parameter of the data set's checked models (``case``: a
+    :class:`~bayestissue.analyses.evidence_check.CheckCase`): the paper's Table 1 value of each test the data set
+    holds, our least squares on it, and each checked model's 5 / 50 / 95 % under the importance weights (a mirror
+    model's tied parameter names its source). For a data set the nested runs leave without a posterior one can use."""
+    tied = dict(MIRROR_TIES)
+    tests = [case.data] if case.data in PAPER_PARAMETERS else ["T1", "T2"]
+    ls = I.profile_reference.get(case.data)
+    extra = [n for c in case.checks.values() for n in c.names if n not in I.names]
+    rows = []
+    for n in [*I.names, *dict.fromkeys(extra)]:
+        j = I.names.index(n) if n in I.names else None
+        row = {"name": n, "paper": [None if j is None else PAPER_PARAMETERS[t][j] for t in tests],
+               "ls": None if j is None or ls is None else ls.theta_final[j], "models": {}}  # fmt: skip
+        for model, c in case.checks.items():
+            source = tied.get(n, n) if model != "full" else n
+            row["models"][model] = None if source not in c.names else {
+                "q": c.quantiles[c.names.index(source)], "tied_to": source if source != n else None}  # fmt: skip
+        rows.append(row)
+    return rows
+
+
 def _edges(e) -> list[str]:
     """The bounds of ``e``'s log boxes holding at least :data:`EDGE_SHARE` of its posterior in their outermost
     ``ln factor`` (where widening can add evidence the volume term does not count)."""
@@ -153,6 +175,9 @@ def _case(case: DataChoice, I: IdentifiabilityRecord, now: dict[str, str] | None
         "rows": _rows(case, I) if case.data in PAPER_PARAMETERS else [],
         "check": check,
         "choices": choices,
+        # the data set's parameters by importance sampling where Table 1's block above has no nested posterior
+        "check_rows": _check_rows(check, I) if check is not None and case.data not in PAPER_PARAMETERS else [],
+        "check_tests": [case.data] if case.data in PAPER_PARAMETERS else ["T1", "T2"],
         "chosen": choices[0]["chosen"],
         "chosen_by": choices[0]["source"],
     }

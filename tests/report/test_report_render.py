@@ -49,8 +49,9 @@ def test_the_report_opens_with_the_answers(records):
     # 8 677 with the branch count (issue 32: an answers row of 46 words, a section of 436 with tables of 3 and 6 rows),
     # 9 270 with the evidence by importance sampling (issue 36: a table of 7 rows, a bullet per factor, both estimators
     # in the answers rows), 9 666 with the checks' box-width table (4 rows and its paragraph) and the line on the
-    # collapsed check (the fixture now holds one)
-    assert sum(len(line.split()) for line in lines) < 9800
+    # collapsed check (the fixture now holds one), 10 014 with the joint data set's parameters by importance sampling
+    # (a table of 13 rows)
+    assert sum(len(line.split()) for line in lines) < 10200
 
 
 def test_verdicts_follow_the_records(records):
@@ -453,3 +454,29 @@ def test_a_check_with_a_parameter_integrated_out_says_so_with_its_quadratures_co
         line = "joint full: its posterior is a curved sheet far thinner across kappa than along it"
         assert (line in text) is expected
         assert (counts + "." in text) is expected
+
+
+def test_the_joint_data_set_gets_its_parameters_by_importance_sampling_beside_both_tables_1(records):
+    """The joint data set has no Table 1 block of nested posteriors: its checked models' quantiles under the weights
+    stand beside the paper's T1 and T2 values and our joint least squares, a mirror model's tied parameters name their
+    source, a parameter of one model alone (the stiffness scale) is blank elsewhere, the ESS of each check is given and
+    an untrusted one is marked; without the checks there is no table."""
+    check = records.evidence_check
+    joint = check.cases["joint"]
+    full = joint.checks["full"]
+    q = [list(x) for x in full.quantiles]
+    q[1] = [15.4, 18.9, 21.4]  # kappa
+    checks = {**joint.checks, "full": dataclasses.replace(full, quantiles=q, ess=33.0, trusted=True),
+              "mirror": dataclasses.replace(joint.checks["mirror"], ess=257.0, trusted=True)}  # fmt: skip
+    changed = dataclasses.replace(check, cases={**check.cases, "joint": dataclasses.replace(joint, checks=checks)})
+    text = render_report(dataclasses.replace(records, evidence_check=changed))
+    head = "| joint | paper T1 | paper T2 | least squares | mirror model: median [90 %] | full model: median [90 %] |"
+    assert head + " scale model: median [90 %] |" in text
+    rows = {line.split(" | ")[0]: line for line in text.split(head)[1].split("\n\n")[0].splitlines()[2:]}
+    ls = records.identifiability.profile_reference["joint"].theta_final[1]
+    kappa = rows["| kappa"].split(" | ")
+    assert kappa[1:4] == ["2.91", "68.5", f"{ls:.3g}"] and kappa[5] == "18.9 [15.4, 21.4]"
+    assert rows["| ginf3"].split(" | ")[4] == "= ginf2" and rows["| ginf3"].split(" | ")[6] == "= ginf2 |"
+    assert rows["| scale"].startswith("| scale | - | - | - | - | - | ")
+    assert "(mirror ESS 257, full ESS 33, scale ESS 1, **not trusted**:" in text
+    assert "| joint | paper T1 |" not in render_report(dataclasses.replace(records, evidence_check=None))
