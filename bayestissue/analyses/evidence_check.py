@@ -50,7 +50,6 @@ their posteriors lie inside the narrowed boxes (the nested runs' shares in the o
 
 from __future__ import annotations
 
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
@@ -59,6 +58,7 @@ import numpy as np
 
 from bayestissue._validation import ValidationError
 from bayestissue.analyses.box_width import BoxShift, box_shift_weighted
+from bayestissue.analyses.check_proposal import ProposalRun, proposal_run
 from bayestissue.analyses.model_choice import (
     CANDIDATES,
     DATASETS,
@@ -68,7 +68,7 @@ from bayestissue.analyses.model_choice import (
     numbers_hash,
 )
 from bayestissue.analyses.verdicts import evidence_decides, evidence_strength
-from bayestissue.inference import NestedOptions, sample_nested
+from bayestissue.inference import NestedOptions
 from bayestissue.inference.evidence import LEVELS, weighted_quantile
 from bayestissue.inference.ordering import folded, swapped
 from bayestissue.inference.sampling.collapsed import fit_line
@@ -77,8 +77,9 @@ from bayestissue.inference.sampling.importance import (
     fit_unit_proposal,
     importance_evidence,
     pooled_unit_draws,
+    unit_logit,
 )
-from bayestissue.inference.sampling.nested import RunPhases, nested_target
+from bayestissue.inference.sampling.nested import nested_target
 from bayestissue.io.records import RecordError, read_record, write_record
 from bayestissue.paper import MIRROR_TIES
 
@@ -94,6 +95,7 @@ __all__ = [
     "DataProblems",
     "EvidenceCheck",
     "EvidenceCheckRecord",
+    "Quadrature",
     "ProposalRun",
     "cached_check",
     "check_hash",
@@ -102,7 +104,6 @@ __all__ = [
     "mirror_swap",
     "proposal_hash",
     "proposal_run",
-    "quadrature_label",
 ]
 
 #: Error (nats) added in quadrature to each importance-sampling log Z in a factor: the largest difference measured
@@ -183,12 +184,6 @@ DOUBT_MAX = 0.01
 COLLAPSED_MODULE = "inference/sampling/collapsed.py"
 
 
-def quadrature_label(param: str) -> str:
-    """The words that open a collapsed check's quadrature counts in its verdict (:func:`check_model` writes them, the
-    report finds the counts by them)."""
-    return f"{param} by quadrature: "
-
-
 def check_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
     """:func:`~bayestissue.analyses.model_choice.numbers_hash` of the current code (the importance sampler included,
     which the nested runs' hash leaves out; the line quadrature only for a :data:`COLLAPSED` check), the data set's
@@ -198,6 +193,24 @@ def check_hash(mode: str, data_dir: Path, data: str, model: str) -> str:
     if line is not None:
         settings += (("collapsed", line, COLLAPSED_SETTINGS[mode], DOUBT_MAX),)
     return numbers_hash(data_files(data_dir, data), repr(settings), exclude=() if line else (COLLAPSED_MODULE,))
+
+
+@dataclass(frozen=True)
+class Quadrature:
+    """A collapsed check's line quadrature (:class:`~bayestissue.inference.sampling.collapsed.LineQuadrature`):
+    ``param`` integrated out, on ``one_labelling`` of the mirror families or the whole box, ``text`` its settings
+    and counts in words, over all its points (adaptation and estimate): ``points`` integrated, ``outside`` off the
+    labelling (no calls), ``edge`` with the peak on a bracket's edge after the re-brackets, ``flat`` not concave
+    after the Newton steps; ``share`` the normalised weight of the estimate's draws that were either."""
+
+    param: str
+    one_labelling: bool
+    text: str
+    points: int
+    outside: int
+    edge: int
+    flat: int
+    share: float
 
 
 @dataclass(frozen=True)
@@ -213,7 +226,8 @@ class EvidenceCheck:
     :class:`~bayestissue.inference.sampling.importance.ImportanceEvidence` says; ``quantiles[j]`` the 5 / 50 / 95 %
     of sampled material parameter ``names[j]`` under the importance weights (folded where families are
     exchangeable); ``swapped`` the two parameter groups the proposal was symmetrised over (:func:`mirror_swap`), or
-    none; ``box`` the evidence under narrowed and widened log boxes of the material parameters (module docstring)."""
+    none; ``box`` the evidence under narrowed and widened log boxes of the material parameters (module docstring);
+    ``quadrature`` a collapsed check's counts (:data:`COLLAPSED`), None for the others."""
 
     model: str
     numbers_hash: str
@@ -238,6 +252,7 @@ class EvidenceCheck:
     quantiles: list[list[float]]
     swapped: list[list[str]]
     box: BoxShift
+    quadrature: Quadrature | None
 
 
 @dataclass(frozen=True)
@@ -285,7 +300,7 @@ class EvidenceCheckRecord:
     :data:`~bayestissue.analyses.model_choice.DATASETS` order."""
 
     SCHEMA: ClassVar[str] = "bayestissue.evidence_check"
-    VERSION: ClassVar[int] = 3
+    VERSION: ClassVar[int] = 4
     mode: str
     cases: dict[str, CheckCase]
 
@@ -321,60 +336,6 @@ def proposal_hash(mode: str, data_dir: Path, data: str, model: str, seed: int) -
     return numbers_hash(data_files(data_dir, data), settings)
 
 
-@dataclass(frozen=True)
-class ProposalRun:
-    """The nautilus run a check's proposal is fitted to: its parameter sets ``points`` ``(n, n_parameters)`` and
-    their ``weights`` (summing to one), its own ``log_z``, likelihood ``calls`` and seconds ``time_s``, and
-    ``cached``: read back from an earlier stage's cache rather than run."""
-
-    points: np.ndarray
-    weights: np.ndarray
-    log_z: float
-    calls: int
-    time_s: float
-    cached: bool = False
-
-
-def proposal_run(problem, opts: NestedOptions, seed: int, path: Path | None, progress=None) -> ProposalRun:
-    """The nautilus run of ``problem`` (``opts``, ``seed``) whose draws the proposal is fitted to, read from ``path``
-    (an ``.npz`` written by an earlier call under the same :func:`proposal_hash`) when it exists, else run and
-    written there (when ``path`` is given; atomically, so that a killed stage leaves no partial file).
-
-    While it runs (T1's full model: over an hour) nautilus checkpoints into the folder ``path`` names with the suffix
-    ``.nautilus`` after every ``opts.report_every`` likelihood calls, and ``progress(line)`` says how far it is: a
-    stage killed during the run resumes it from there (the folder's name holds the hash, so that only a run of the
-    same code, data, seed and settings is resumed; a resumed run gives the draws of an uninterrupted one, measured
-    on T1's mirror model at 100 live points, tests/analyses/test_evidence_check.py). The folder is removed once the
-    draws are written."""
-    if path is not None and Path(path).is_file():
-        with np.load(path) as f:
-            return ProposalRun(f["points"], f["weights"], float(f["log_z"]), int(f["calls"]), float(f["time_s"]),
-                               cached=True)  # fmt: skip
-    checkpoint = None if path is None else Path(path).with_suffix(".nautilus")
-    resume = checkpoint is not None and checkpoint.is_dir()
-    if resume and progress is not None:
-        progress(f"nautilus resumes from {checkpoint}")
-
-    phases = RunPhases(opts.n_eff)
-
-    def report(k, calls, n_eff, explored, log_z):
-        phases.update(k, calls, n_eff, explored)
-        progress(f"nautilus {phases.evaluations} calls, {phases.text()}, log Z {log_z:.2f}")
-
-    run = sample_nested(problem, options=opts, rng=seed, checkpoint=checkpoint, resume=resume,
-                        progress=None if progress is None else report).runs[0]  # fmt: skip
-    found = ProposalRun(np.asarray(run.points), np.asarray(run.weights), float(run.log_z), int(run.n_like),
-                        float(run.time_s))  # fmt: skip
-    if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        part = Path(path).with_suffix(".part.npz")
-        np.savez(part, points=found.points, weights=found.weights, log_z=found.log_z, calls=found.calls,
-                 time_s=found.time_s)  # fmt: skip
-        part.replace(path)
-        shutil.rmtree(checkpoint, ignore_errors=True)
-    return found
-
-
 def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed: int, progress,
                 cache: Path | None = None) -> EvidenceCheck:  # fmt: skip
     """One model's check on the data set ``data`` (its files in ``data_dir``, for the hash): the nautilus run (from
@@ -398,7 +359,7 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
 
     swap = mirror_swap(names, log_l_unit, u[np.argsort(w)[::-1]])
     iopts = ImportanceOptions(**settings["importance"])
-    collapse = COLLAPSED.get((data, model))
+    collapse, outside = COLLAPSED.get((data, model)), None
     if collapse is None:
         target, draws, proposal_swap = log_l_unit, u, swap
     else:  # one parameter integrated out by quadrature, the proposal over the others (COLLAPSED)
@@ -413,6 +374,11 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
             u, proposal_swap, swap = folded(u, swap), None, None
         line = fit_line(u, w, k, swap=proposal_swap, seed=seed, zoom=collapse.zoom, labelling=labelling)
         target, draws = line.collapsed(log_l_unit), np.delete(u, k, axis=1)
+        if labelling is not None:  # zero likelihood off the labelling by construction: not failed solves
+
+            def outside(unit_rest):
+                return ~line.inside(unit_logit(unit_rest))
+
         progress(f"{data} {model}: {collapse.param} integrated out by quadrature (regression's largest residual "
                  f"{line.residual_max:.3g}, bracket +-{line.window:.3g})")  # fmt: skip
     proposal = fit_unit_proposal(draws, iopts, weights=w, seed=seed, swap=proposal_swap)
@@ -422,20 +388,28 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
             of = f" of at most {iopts.adapt_rounds}" if stage.startswith("adapt") else ""
             progress(f"{data} {model}: importance sampling, {stage}{of} done ({total} draws)")
 
-    res = importance_evidence(target, proposal, iopts, rng=seed, progress=rounds)
+    res = importance_evidence(target, proposal, iopts, rng=seed, progress=rounds, outside=outside)
     wn = np.exp(res.log_w)
-    trusted, verdict = res.trusted, res.verdict()
+    trusted, verdict, quad = res.trusted, res.verdict(), None
     if collapse is None:
         unit = res.unit
     else:  # quantiles from draws resampled by weight, each with the integrated parameter from its conditional
         share = float(wn[line.last_doubtful(res.n_draws)].sum())
-        verdict += f"; {quadrature_label(collapse.param)}{line.text()}, holding {share:.2g} of the weight"
+        quad = Quadrature(collapse.param, labelling is not None, line.text(), line.points, line.outside, line.edge,
+                          line.flat, share)  # fmt: skip
+        verdict += f"; {collapse.param} by quadrature: {line.text()}, holding {share:.2g} of the weight"
         if share >= DOUBT_MAX:
             trusted = False
             verdict += f" (NOT TRUSTED: at least {DOUBT_MAX:g})"
         gen = np.random.default_rng(seed)
         pick = gen.choice(res.n_draws, size=COLLAPSED_SETTINGS[mode]["quantile_draws"], p=wn / wn.sum())
-        unit, wn = line.draw(log_l_unit, res.unit[pick], gen), np.full(pick.size, 1.0 / pick.size)
+        m, sd = line.last_peaks(res.n_draws)  # the estimate's own quadratures: no new calls
+        unit, wn = line.draw_at(res.unit[pick], m[pick], sd[pick], gen), np.full(pick.size, 1.0 / pick.size)
+    if cache is not None:  # the estimate's weighted draws, for a look at where its weight sits
+        key = check_hash(mode, data_dir, data, model)
+        Path(cache).mkdir(parents=True, exist_ok=True)
+        np.savez(Path(cache) / f"draws_{mode}_{data}_{model}_{key}.npz", unit=res.unit, log_w=res.log_w,
+                 names=np.array([n for n in names if collapse is None or n != collapse.param]))  # fmt: skip
     x = prior(unit)
     box = box_shift_weighted(x, wn, res.ess, problem.parameters.sampled[:n_dim])
     padded = np.zeros((x.shape[0], problem.ndim))
@@ -449,10 +423,11 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
                          log_z_err=res.log_z_err, batch_log_z=res.batch_log_z.tolist(),
                          batch_err=res.batch_err.tolist(), batch_p=res.batch_p, k_hat=res.k_hat, ess=res.ess,
                          n_draws=res.n_draws, calls=res.n_calls if collapse is None else line.calls,
-                         failed=res.n_failed - (0 if collapse is None else line.outside), time_s=res.time_s,
+                         failed=res.n_failed, time_s=res.time_s,
                          adapt_log_z=list(res.adapt_log_z),
                          trusted=trusted, verdict=verdict, quantiles=q,
-                         swapped=[[names[i] for i in g] for g in swap or ()], box=box)  # fmt: skip
+                         swapped=[[names[i] for i in g] for g in swap or ()], box=box,
+                         quadrature=quad)  # fmt: skip
 
 
 class DataProblems:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from bayestissue.analyses.box_width import FACTOR
-from bayestissue.analyses.evidence_check import COLLAPSED, PROPOSAL_ERROR, quadrature_label
+from bayestissue.analyses.evidence_check import PROPOSAL_ERROR
 from bayestissue.analyses.model_choice import DataChoice, ModelChoiceRecord, rerun_command
 from bayestissue.analyses.records import IdentifiabilityRecord
 from bayestissue.analyses.verdicts import (
@@ -195,7 +195,7 @@ def model_choice_context(
     ``check``: the importance-sampling record (:class:`~bayestissue.analyses.evidence_check.EvidenceCheckRecord`) or
     None, ``check_now`` its current hashes likewise (:func:`~bayestissue.analyses.evidence_check.check_hash`);
     ``quadrature`` lists the checks made with a parameter integrated out by quadrature and their quadrature's
-    counts (:data:`~bayestissue.analyses.evidence_check.COLLAPSED`, from their verdicts)."""
+    counts (:attr:`~bayestissue.analyses.evidence_check.EvidenceCheck.quadrature`)."""
     if rec is None:
         return None
     now = now or {}
@@ -204,10 +204,9 @@ def model_choice_context(
         f"{d} {m}" for d, c in check.cases.items() for m, e in c.checks.items()
         if check_now.get(d, {}).get(m) != e.numbers_hash]  # fmt: skip
     quadrature = [] if check is None else [
-        {"data": d, "model": m, "param": q.param, "one_labelling": q.one_labelling,
-         "text": e.verdict.split(quadrature_label(q.param))[1]}
-        for d, c in check.cases.items() for m, e in c.checks.items() for q in [COLLAPSED.get((d, m))]
-        if q is not None and quadrature_label(q.param) in e.verdict]  # fmt: skip
+        {"data": d, "model": m, "param": e.quadrature.param, "one_labelling": e.quadrature.one_labelling,
+         "text": f"{e.quadrature.text}, holding {e.quadrature.share:.2g} of the weight"}
+        for d, c in check.cases.items() for m, e in c.checks.items() if e.quadrature is not None]  # fmt: skip
     return {"record": rec, "cases": cases, "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR,
             "check": check, "check_stale": stale, "proposal_error": PROPOSAL_ERROR,
             "quadrature": quadrature}  # fmt: skip

@@ -138,6 +138,7 @@ def test_the_quick_stage_checks_t1s_models_and_keeps_current_checks(tmp_path, ca
     assert mirror.calls == 3000 and mirror.swapped == [] and full.swapped == []
     assert "beta3 by quadrature: " in full.verdict and "2 finer grids" in full.verdict
     assert "draws off the labelling: no calls" in full.verdict
+    assert full.quadrature.one_labelling and full.quadrature.outside > 0 and mirror.quadrature is None
     capsys.readouterr()
     assert stage.main(["--quick", "--out", str(tmp_path)]) == 0
     assert capsys.readouterr().out.count("matches the current code") == 2
@@ -210,10 +211,19 @@ def test_a_collapsed_check_integrates_its_parameter_out_and_reports_the_quadratu
     lines = []
     c = check_model(problem, ROOT / "data", "joint", "full", "quick", 7, lines.append, tmp_path)
     assert any("kappa integrated out by quadrature" in line for line in lines)
-    # the likelihood calls: per point a 41-point bracket, 6 Newton steps of 3 and 12 nodes, plus kappa's draws (no
-    # nodes), and 41 more for each re-bracket of a point whose peak lay beyond the last bracket's edge
-    base = 750 * 71 + 200 * 59
+    # the likelihood calls: per point a 41-point bracket, 6 Newton steps of 3 and 12 nodes, and 41 more for each
+    # re-bracket of a point whose peak lay beyond the last bracket's edge; kappa's draws for the quantiles reuse the
+    # estimate's peaks (no calls)
+    base = 750 * 71
     assert c.n_draws == 500 and c.calls >= base and (c.calls - base) % 41 == 0
+    # the quadrature's counts as fields of the record, the verdict's words from the same counts
+    k = c.quadrature
+    assert (k.param, k.one_labelling, k.points, k.outside) == ("kappa", False, 750, 0) and 0 <= k.share <= 1
+    assert f"kappa by quadrature: {k.text}, holding {k.share:.2g} of the weight" in c.verdict
+    assert f"edge at {k.edge} of 750 points" in k.text and f"not concave at {k.flat}" in k.text
+    # the estimate's weighted draws are kept beside the check, over the 10 parameters sampled
+    with np.load(tmp_path / f"draws_quick_joint_full_{c.numbers_hash}.npz") as f:
+        assert f["unit"].shape == (500, 10) and "kappa" not in f["names"] and np.isclose(np.exp(f["log_w"]).sum(), 1)
     assert len(c.quantiles) == len(c.names) == 11
     assert "kappa by quadrature: 41-point bracket" in c.verdict and "at most 4 re-brackets" in c.verdict
     assert "of the weight" in c.verdict

@@ -233,7 +233,7 @@ def test_a_symmetrised_proposal_is_symmetric_and_its_adaptation_keeps_it_so():
     proposal = fit_unit_proposal(np.clip(m1 + 3 * sd * rng.standard_normal((500, 4)), 0.01, 0.99), opts, swap=SWAP)
     z = proposal.sample_logit(500, rng)
     assert np.allclose(proposal.logpdf_logit(z), proposal.logpdf_logit(swapped(z, SWAP)), rtol=0, atol=1e-12)
-    z_draws, log_w, _ = _log_weights(log_l_unit, proposal, 2_000, rng, 1_000, None, "")
+    z_draws, log_w, _, _ = _log_weights(log_l_unit, proposal, 2_000, rng, 1_000, None, "")
     w = np.exp(log_w - logsumexp(log_w))
     adapted = UnitProposal(_weighted_em(proposal.mixture, z_draws, w, opts.widen, SWAP), proposal.defensive, SWAP)
     assert np.allclose(adapted.logpdf_logit(z), adapted.logpdf_logit(swapped(z, SWAP)), rtol=0, atol=1e-12)
@@ -308,3 +308,31 @@ def test_option_errors_name_the_field(kw, field):
 def test_draws_outside_the_cube_are_refused():
     with pytest.raises(ValidationError, match="unit draws"):
         fit_unit_proposal(np.full((100, 2), 1.5))
+
+
+def test_zero_likelihood_outside_the_support_is_not_a_failed_solve(linear):
+    """A target that is -inf for u1 < 0.5 by construction (declared by ``outside``) and -inf at a few failed solves
+    inside: the draws outside are counted apart and cost no call, only the solves that failed inside count as
+    failed, and the estimate is the one of the same weights without the declaration."""
+    problem, draws = linear
+    log_l_unit, to_unit = _unit_target(problem)
+    opts = ImportanceOptions(n_draws=2_000, adapt_rounds=1, adapt_draws=1_000)
+    proposal = fit_unit_proposal(to_unit(draws), opts)
+
+    def target(u):
+        ll = log_l_unit(u)
+        ll[u[:, 0] < 0.5] = -np.inf  # the posterior sits at u1 = 0.5 +- 1e-3 or so: about half of it is cut
+        ll[::97] = -np.inf  # failed solves, inside or out
+        return ll
+
+    def outside(u):
+        return u[:, 0] < 0.5
+
+    declared = importance_evidence(target, proposal, opts, rng=9, outside=outside)
+    plain = importance_evidence(target, proposal, opts, rng=9)
+    out = np.sum(outside(declared.unit))  # the estimate's draws off the support (the adaptation's add to it)
+    assert declared.n_outside >= out > 0 and plain.n_outside == 0
+    assert plain.n_failed == declared.n_failed + declared.n_outside
+    assert 0 < declared.n_failed < 2 * (opts.n_draws + opts.adapt_draws) / 97
+    assert declared.n_calls == opts.n_draws + opts.adapt_draws - declared.n_outside
+    assert declared.log_z == plain.log_z

@@ -436,24 +436,30 @@ def test_a_trusted_importance_sampling_factor_rules_the_model_choice(records):
 
 
 def test_a_check_with_a_parameter_integrated_out_says_so_with_its_quadratures_counts(records):
-    """A check made with kappa integrated out by quadrature (COLLAPSED: the joint full model) gets a line naming the
-    parameter and the quadrature's counts from its verdict; a check of the same model whose verdict does not carry
-    them (made before the quadrature) gets none."""
-    from bayestissue.analyses.evidence_check import CheckCase
+    """A check made with kappa integrated out by quadrature (its record's ``quadrature``: the joint full model) gets a
+    line naming the parameter and the quadrature's counts and share of the weight, read from the record's fields (not
+    its verdict); a check without them gets none; one labelling of the mirror families is said where it was used."""
+    from bayestissue.analyses.evidence_check import CheckCase, Quadrature
 
     check = records.evidence_check
     full = check.cases["T1"].checks["full"]
     counts = (
         "41-point bracket of +-0.0679 (largest regression residual 0.0453), 6 Newton steps, 12 Gauss-Hermite "
-        "nodes: peak on the bracket's edge at 3 of 20000 points, not concave at 1, holding 0.0004 of the weight"
+        "nodes: peak on the bracket's edge at 3 of 20000 points, not concave at 1"
     )
-    quad = dataclasses.replace(full, verdict=full.verdict + "; kappa by quadrature: " + counts)
-    for made, expected in ((quad, True), (full, False)):
+    quad = Quadrature("kappa", False, counts, 20000, 0, 3, 1, 0.0004)
+    line = "joint full: its posterior is a curved sheet far thinner across kappa than along it"
+    for made, expected in ((dataclasses.replace(full, quadrature=quad), True), (full, False)):
         cases = {**check.cases, "joint": CheckCase("joint", {"full": made})}
         text = render_report(dataclasses.replace(records, evidence_check=dataclasses.replace(check, cases=cases)))
-        line = "joint full: its posterior is a curved sheet far thinner across kappa than along it"
         assert (line in text) is expected
-        assert (counts + "." in text) is expected
+        assert (counts + ", holding 0.0004 of the weight." in text) is expected
+        assert "on one labelling of the mirror families" not in text.split(line)[-1].split("\n")[0]
+    labelled = dataclasses.replace(full, quadrature=dataclasses.replace(quad, param="beta3", one_labelling=True))
+    cases = {**check.cases, "T1": CheckCase("T1", {"full": labelled})}
+    text = render_report(dataclasses.replace(records, evidence_check=dataclasses.replace(check, cases=cases)))
+    assert "T1 full: its posterior is a curved sheet far thinner across beta3 than along it" in text
+    assert "on one labelling of the mirror families (family 3 the softer by ginf, so beta3 is the softer" in text
 
 
 def test_the_joint_data_set_gets_its_parameters_by_importance_sampling_beside_both_tables_1(records):

@@ -30,7 +30,7 @@ The inner integral, per point, in three steps (all points of a batch at once, so
    of the weight). Where the best point is on the bracket's edge, the peak lies beyond it: up to ``rebracket`` more
    brackets of ``grid`` points, each centred on the edge the last one hit and twice as wide. A proposal's draws
    away from the posterior can have their peak far from the prediction: on the joint full model, of 100 draws of
-   the fitted proposal whose first bracket (+-0.07) missed, the peak lay 0.07-1.5 away, and the 40 heaviest draws
+   the fitted proposal whose first bracket (+-0.07) missed, the peak lay 0.069-1.5 away, and the 40 heaviest draws
    had one peak within +-0.5, 0.0002-0.026 from the prediction (stop 76). Then ``zoom`` finer grids, each of
    ``grid`` points across :math:`\\pm` one spacing of the last around its best point: where the conditional is far
    narrower than the bracket's spacing (T1's full model: its conditional sd in the softer fibre family's
@@ -73,21 +73,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import expit, log_expit, logit, logsumexp
+from scipy.special import expit, log_expit, logsumexp
 
 from bayestissue._validation import ValidationError
 from bayestissue.inference.ordering import folded
+from bayestissue.inference.sampling.importance import unit_logit
 
 __all__ = ["LineQuadrature", "fit_line"]
 
 
 #: The central-difference stencil of the Newton steps, in units of their step h.
 _STENCIL = np.array([-1.0, 0.0, 1.0])
-
-
-def _logit(unit) -> np.ndarray:
-    """:math:`\\operatorname{logit}` of unit-cube points ``(n, d)``, moved 1e-12 inside the faces."""
-    return logit(np.clip(np.atleast_2d(np.asarray(unit, dtype=float)), 1e-12, 1 - 1e-12))
 
 
 def _features(z_rest: np.ndarray) -> np.ndarray:
@@ -105,7 +101,8 @@ class LineQuadrature:
     docstring) or None. ``edge``, ``flat``, ``points``: points whose peak was on a bracket's edge after the
     re-brackets, whose :math:`g''` stayed non-negative, and all points integrated, counted over every call;
     ``outside``: points outside the labelling (zero likelihood, no call); ``calls`` the likelihood calls they
-    took; ``doubtful``: per call, which of its points were either (:meth:`last_doubtful`)."""
+    took; ``doubtful``: per call, which of its points were either (:meth:`last_doubtful`); ``peak``: per call, each
+    point's conditional peak and sd (NaN off the labelling; :meth:`last_peaks`)."""
 
     k: int
     coef: np.ndarray
@@ -124,6 +121,7 @@ class LineQuadrature:
     outside: int = field(default=0, init=False)
     calls: int = field(default=0, init=False)
     doubtful: list = field(default_factory=list, init=False, repr=False)
+    peak: list = field(default_factory=list, init=False, repr=False)
 
     def __post_init__(self):
         for name, ok, expected in (("window", self.window >= 1.5 * self.residual_max,
@@ -200,23 +198,26 @@ class LineQuadrature:
     def __call__(self, log_l_unit: Callable, unit_rest: np.ndarray) -> np.ndarray:
         """:math:`\\log L_c` at unit-cube points ``unit_rest`` ``(n, d - 1)`` (step 3); with a :attr:`labelling`,
         :math:`\\log 2 + \\log L_c` on it and :math:`-\\infty` off it."""
-        z_all = _logit(unit_rest)
+        z_all = unit_logit(unit_rest)
         inside = self.inside(z_all)
         z_rest, n = z_all[inside], int(inside.sum())
         out, doubtful = np.full(z_all.shape[0], -np.inf), np.zeros(z_all.shape[0], dtype=bool)
+        peak = np.full((z_all.shape[0], 2), np.nan)
         if n:
             m, s, edge, flat = self.peaks(log_l_unit, z_rest)
             x, w = np.polynomial.hermite.hermgauss(self.nodes)
             nodes = (m[:, None] + np.sqrt(2.0) * s[:, None] * x[None, :]).ravel()
             g = self._g(log_l_unit, np.repeat(z_rest, self.nodes, axis=0), nodes).reshape(n, self.nodes)
-            out[inside] = np.log(np.sqrt(2.0) * s) + logsumexp(g + x[None, :] ** 2, b=w[None, :], axis=1)
-            out[inside] += 0.0 if self.labelling is None else np.log(2.0)
+            log_2 = 0.0 if self.labelling is None else np.log(2.0)  # the other labelling's half (module docstring)
+            out[inside] = np.log(np.sqrt(2.0) * s) + logsumexp(g + x[None, :] ** 2, b=w[None, :], axis=1) + log_2
             doubtful[inside] = edge | flat
+            peak[inside] = np.column_stack([m, s])
             self.edge += int(edge.sum())
             self.flat += int(flat.sum())
         self.points += n
         self.outside += z_all.shape[0] - n
         self.doubtful.append(doubtful)
+        self.peak.append(peak)
         return out
 
     def collapsed(self, log_l_unit: Callable) -> Callable[[np.ndarray], np.ndarray]:
@@ -224,20 +225,34 @@ class LineQuadrature:
         :func:`~bayestissue.inference.sampling.importance.importance_evidence` takes)."""
         return lambda unit_rest: self(log_l_unit, unit_rest)
 
+    @staticmethod
+    def _last(per_call: list, n: int) -> np.ndarray:
+        """The last ``n`` points' entries (in order) of a per-call list."""
+        got = sum(len(x) for x in per_call)
+        if got < n:
+            raise ValidationError("line quadrature points", got, f"at least the {n} asked for")
+        return np.concatenate(per_call)[got - n :]
+
     def last_doubtful(self, n: int) -> np.ndarray:
         """Which of the last ``n`` points evaluated (in order) were doubtful: for an importance estimate's own
         draws, whose weights then say how much of the estimate rests on them."""
-        flags = np.concatenate(self.doubtful) if self.doubtful else np.zeros(0, dtype=bool)
-        if flags.size < n:
-            raise ValidationError("line quadrature points", flags.size, f"at least the {n} asked for")
-        return flags[flags.size - n :]
+        return self._last(self.doubtful, n)
 
-    def draw(self, log_l_unit: Callable, unit_rest: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    def last_peaks(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """The conditional peak :math:`m` and sd :math:`s` of the last ``n`` points evaluated (in order; NaN off the
+        labelling): what :meth:`draw_at` needs for an importance estimate's own draws, without new calls."""
+        peak = self._last(self.peak, n)
+        return peak[:, 0], peak[:, 1]
+
+    def draw_at(self, unit_rest: np.ndarray, m: np.ndarray, s: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Full unit-cube points ``(n, d)``: each of ``unit_rest`` with :math:`z_k` drawn from its conditional,
         taken as Gaussian :math:`N(m, s^2)` (what the quadrature assumes; for posterior quantiles of :math:`u_k`)."""
-        z_rest = _logit(unit_rest)
-        m, s, _, _ = self.peaks(log_l_unit, z_rest)
-        return self.full(z_rest, m + s * rng.standard_normal(m.shape))
+        return self.full(unit_logit(unit_rest), m + s * rng.standard_normal(np.shape(m)))
+
+    def draw(self, log_l_unit: Callable, unit_rest: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """:meth:`draw_at` with each point's peak and sd found anew (steps 1-2)."""
+        m, s, _, _ = self.peaks(log_l_unit, unit_logit(unit_rest))
+        return self.draw_at(unit_rest, m, s, rng)
 
     def text(self) -> str:
         """One line: the settings and the counts."""
@@ -261,7 +276,7 @@ def fit_line(unit_draws, weights, k: int, *, swap=None, n: int = 20_000, seed: i
         raise ValidationError("line quadrature draws", f"shape {u.shape}, k {k}, weights {w.shape}",
                               "(N, d) unit points, 0 <= k < d and N weights summing to one")  # fmt: skip
     idx = np.random.default_rng(seed).choice(u.shape[0], size=n, p=w / w.sum())
-    z = _logit(u[idx])
+    z = unit_logit(u[idx])
     rest = np.delete(z, k, axis=1)
     x = _features(rest if swap is None else folded(rest, swap))
     coef, *_ = np.linalg.lstsq(x, z[:, k], rcond=None)

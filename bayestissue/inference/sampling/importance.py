@@ -105,6 +105,7 @@ __all__ = [
     "fit_unit_proposal",
     "importance_evidence",
     "pooled_unit_draws",
+    "unit_logit",
 ]
 
 #: Pareto k-hat above which the weights' variance is not trusted (Vehtari et al. 2024, section 3.2.4)
@@ -204,6 +205,12 @@ class UnitProposal:
         return np.logaddexp(np.log(self.defensive), mix)
 
 
+def unit_logit(unit) -> np.ndarray:
+    """:math:`\\operatorname{logit}` of unit-cube points ``(n, d)``, moved 1e-12 inside the faces (where the logit
+    is infinite)."""
+    return logit(np.clip(np.atleast_2d(np.asarray(unit, dtype=float)), 1e-12, 1 - 1e-12))
+
+
 def fit_unit_proposal(unit_draws, options: ImportanceOptions = ImportanceOptions(), *, weights=None, seed: int = 0,
                       rng=None, swap=None) -> UnitProposal:  # fmt: skip
     """The proposal fitted to draws in unit-cube coordinates ``(n, d)`` (equal weights, or ``weights`` summing to
@@ -226,7 +233,7 @@ def fit_unit_proposal(unit_draws, options: ImportanceOptions = ImportanceOptions
             raise ValidationError("swap", swap, f"two disjoint index groups of equal length in [0, {u.shape[1]})")
         swap = (a, b)
         u = folded(u, swap)
-    z = logit(np.clip(u, 1e-12, 1 - 1e-12))
+    z = unit_logit(u)
     mix = fit_t_mixture(z, n_components=options.n_components, widen=options.widen, df=options.df, seed=seed)
     return UnitProposal(mix, float(options.defensive), swap)
 
@@ -235,9 +242,11 @@ def fit_unit_proposal(unit_draws, options: ImportanceOptions = ImportanceOptions
 class ImportanceEvidence:
     """The estimate of :func:`importance_evidence`: ``log_z`` and its error (delta method over all draws), the
     batches' own, the Pareto :math:`\\hat k` of the weights, their Kish effective sample size, the likelihood calls
-    (adaptation included) and failed solves, the seconds, each adaptation round's :math:`\\log\\hat Z` and Pareto
-    :math:`\\hat k`, whether the adaptation met its stopping rule (:class:`ImportanceOptions`) before its last
-    round, and the weighted draws (``unit`` coordinates, ``log_w`` normalised) for the posterior's quantiles."""
+    (adaptation included; none for draws outside), the failed solves among them and the draws outside the target's
+    support (zero likelihood by construction, not failures; ``outside`` of :func:`importance_evidence`), the
+    seconds, each adaptation round's :math:`\\log\\hat Z` and Pareto :math:`\\hat k`, whether the adaptation met
+    its stopping rule (:class:`ImportanceOptions`) before its last round, and the weighted draws (``unit``
+    coordinates, ``log_w`` normalised) for the posterior's quantiles."""
 
     log_z: float
     log_z_err: float
@@ -248,6 +257,7 @@ class ImportanceEvidence:
     n_draws: int
     n_calls: int
     n_failed: int
+    n_outside: int
     time_s: float
     adapt_log_z: list[float]
     adapt_k_hat: list[float]
@@ -323,27 +333,30 @@ def _weighted_em(mixture: TMixture, z: np.ndarray, w: np.ndarray, widen: float, 
 def _clipped(log_w: np.ndarray, m: int) -> np.ndarray:
     """Normalised weights with the ``m`` largest lowered to the ``m``-th largest (none when ``m`` is 0 or not less
     than the finite weights' number): the nonlinear transformation of Koblents & Miguez (2015, module docstring)."""
-    finite = np.sort(log_w[np.isfinite(log_w)])
+    finite = log_w[np.isfinite(log_w)]
     if 0 < m < finite.size:
-        log_w = np.minimum(log_w, finite[-m])
+        log_w = np.minimum(log_w, np.partition(finite, finite.size - m)[finite.size - m])
     return np.exp(log_w - logsumexp(log_w))
 
 
-def _log_weights(log_l_unit, proposal, n, rng, chunk, progress, stage) -> tuple[np.ndarray, np.ndarray, int]:
-    """``n`` proposal draws (logit coordinates) and their log-weights :math:`\\log L - \\log q`; failed solves
-    (non-finite log-likelihood) have weight 0 and are counted."""
+def _log_weights(log_l_unit, proposal, n, rng, chunk, progress, stage, outside=None):
+    """``n`` proposal draws (logit coordinates), their log-weights :math:`\\log L - \\log q`, the failed solves and
+    the draws ``outside`` the target's support (a predicate on unit points, or None). A non-finite log-likelihood
+    has weight 0; it is a failed solve unless the draw is outside."""
     z = proposal.sample_logit(n, rng)
     log_w = np.empty(n)
-    failed = 0
+    failed = off = 0
     for start in range(0, n, chunk):
         zs = z[start : start + chunk]
-        ll = np.asarray(log_l_unit(expit(zs)), dtype=float)
+        us = expit(zs)
+        ll = np.asarray(log_l_unit(us), dtype=float)
+        out = np.zeros(ll.size, dtype=bool) if outside is None else np.asarray(outside(us), dtype=bool)
         bad = ~np.isfinite(ll)
-        failed += int(bad.sum())
+        failed, off = failed + int(np.sum(bad & ~out)), off + int(out.sum())
         log_w[start : start + chunk] = np.where(bad, -np.inf, ll) - proposal.logpdf_logit(zs)
         if progress is not None:
             progress(stage, min(start + chunk, n), n)
-    return z, log_w, failed
+    return z, log_w, failed, off
 
 
 def _log_mean(log_w) -> tuple[float, float]:
@@ -384,19 +397,22 @@ def importance_evidence(
     *,
     rng=None,
     progress: Callable | None = None,
+    outside: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> ImportanceEvidence:
     """:math:`\\log Z` of ``log_l_unit`` (the log-likelihood of unit-cube points ``(n, d)``, batched) by importance
     sampling from ``proposal`` after at most ``options.adapt_rounds`` refits (module docstring). ``progress(stage, done,
-    total)`` after every chunk, ``stage`` ``"adapt 1"``, ... or ``"estimate"``."""
+    total)`` after every chunk, ``stage`` ``"adapt 1"``, ... or ``"estimate"``. ``outside(unit)``: which unit points
+    lie outside the target's support, where ``log_l_unit`` is :math:`-\\infty` by construction (e.g. one labelling
+    of exchangeable parameters): their zero weights are counted apart from failed solves."""
     rng = np.random.default_rng(rng)
     t0 = time.perf_counter()
-    calls = failed = 0
+    calls = failed = off = 0
     adapt_log_z, adapt_k_hat = [], []
     converged = False
     for r in range(options.adapt_rounds):
-        z, log_w, f = _log_weights(log_l_unit, proposal, options.adapt_draws, rng, options.chunk, progress,
-                                   f"adapt {r + 1}")  # fmt: skip
-        calls, failed = calls + z.shape[0], failed + f
+        z, log_w, f, o = _log_weights(log_l_unit, proposal, options.adapt_draws, rng, options.chunk, progress,
+                                      f"adapt {r + 1}", outside)  # fmt: skip
+        calls, failed, off = calls + z.shape[0] - o, failed + f, off + o
         if not np.any(np.isfinite(log_w)):
             raise ValidationError("importance proposal", "every draw failed or has zero likelihood",
                                   "a proposal that reaches the posterior")  # fmt: skip
@@ -407,8 +423,10 @@ def importance_evidence(
         if _adapted(adapt_log_z, adapt_k_hat, options):
             converged = True
             break
-    z, log_w, f = _log_weights(log_l_unit, proposal, options.n_draws, rng, options.chunk, progress, "estimate")
-    calls, failed = calls + z.shape[0], failed + f
+    z, log_w, f, o = _log_weights(
+        log_l_unit, proposal, options.n_draws, rng, options.chunk, progress, "estimate", outside
+    )
+    calls, failed, off = calls + z.shape[0] - o, failed + f, off + o
     log_z, err = _log_mean(log_w)
     batches = np.array_split(np.arange(options.n_draws), options.n_batches)
     b = np.array([_log_mean(log_w[i]) for i in batches])
@@ -423,6 +441,7 @@ def importance_evidence(
         n_draws=int(options.n_draws),
         n_calls=int(calls),
         n_failed=int(failed),
+        n_outside=int(off),
         time_s=time.perf_counter() - t0,
         adapt_log_z=adapt_log_z,
         adapt_k_hat=adapt_k_hat,
