@@ -34,7 +34,8 @@ class ProposalRun:
 
 def proposal_run(problem, opts: NestedOptions, seed: int, path: Path | None, progress=None) -> ProposalRun:
     """The nautilus run of ``problem`` (``opts``, ``seed``) whose draws the proposal is fitted to, read from ``path``
-    (an ``.npz`` written by an earlier call under the same :func:`proposal_hash`) when it exists, else run and
+    (an ``.npz`` written by an earlier call under the same
+    :func:`~bayestissue.analyses.evidence_check.proposal_hash`) when it exists, else run and
     written there (when ``path`` is given; atomically, so that a killed stage leaves no partial file).
 
     While it runs (T1's full model: over an hour) nautilus checkpoints into the folder ``path`` names with the suffix

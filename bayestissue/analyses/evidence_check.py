@@ -212,6 +212,10 @@ class Quadrature:
     flat: int
     share: float
 
+    def summary(self) -> str:
+        """The settings and counts, and the weight on doubtful points: the verdict's words and the report's."""
+        return f"{self.text}, holding {self.share:.2g} of the weight"
+
 
 @dataclass(frozen=True)
 class EvidenceCheck:
@@ -397,7 +401,7 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
         share = float(wn[line.last_doubtful(res.n_draws)].sum())
         quad = Quadrature(collapse.param, labelling is not None, line.text(), line.points, line.outside, line.edge,
                           line.flat, share)  # fmt: skip
-        verdict += f"; {collapse.param} by quadrature: {line.text()}, holding {share:.2g} of the weight"
+        verdict += f"; {collapse.param} by quadrature: {quad.summary()}"
         if share >= DOUBT_MAX:
             trusted = False
             verdict += f" (NOT TRUSTED: at least {DOUBT_MAX:g})"
@@ -405,10 +409,10 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
         pick = gen.choice(res.n_draws, size=COLLAPSED_SETTINGS[mode]["quantile_draws"], p=wn / wn.sum())
         m, sd = line.last_peaks(res.n_draws)  # the estimate's own quadratures: no new calls
         unit, wn = line.draw_at(res.unit[pick], m[pick], sd[pick], gen), np.full(pick.size, 1.0 / pick.size)
+    check_key = check_hash(mode, data_dir, data, model)  # of the code as it is when the check ends
     if cache is not None:  # the estimate's weighted draws, for a look at where its weight sits
-        key = check_hash(mode, data_dir, data, model)
         Path(cache).mkdir(parents=True, exist_ok=True)
-        np.savez(Path(cache) / f"draws_{mode}_{data}_{model}_{key}.npz", unit=res.unit, log_w=res.log_w,
+        np.savez(Path(cache) / f"draws_{mode}_{data}_{model}_{check_key}.npz", unit=res.unit, log_w=res.log_w,
                  names=np.array([n for n in names if collapse is None or n != collapse.param]))  # fmt: skip
     x = prior(unit)
     box = box_shift_weighted(x, wn, res.ess, problem.parameters.sampled[:n_dim])
@@ -417,7 +421,7 @@ def check_model(problem, data_dir: Path, data: str, model: str, mode: str, seed:
     canon = problem.canonical(padded)[:, :n_dim]
     q = [weighted_quantile(canon[:, j], wn, LEVELS).tolist() for j in range(n_dim)]
     progress(f"{data} {model}: {verdict}")
-    return EvidenceCheck(model=model, numbers_hash=check_hash(mode, data_dir, data, model),
+    return EvidenceCheck(model=model, numbers_hash=check_key,
                          names=names, proposal_log_z=run.log_z, proposal_calls=run.calls,
                          proposal_s=run.time_s, log_z=res.log_z,
                          log_z_err=res.log_z_err, batch_log_z=res.batch_log_z.tolist(),

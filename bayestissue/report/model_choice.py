@@ -32,14 +32,18 @@ PROJECTED_WORKERS = (1, 4)
 EDGE_SHARE = 0.05
 
 
+def _source(model: str, name: str) -> str:
+    """The parameter model ``model`` samples for ``name``: a tied model's (mirror, scale) source of a tied one."""
+    return name if model == "full" else dict(MIRROR_TIES).get(name, name)
+
+
 def _rows(case: DataChoice, I: IdentifiabilityRecord) -> list[dict]:
     """Per parameter of Table 1: the paper's value, our least squares, each model's nested posterior."""
-    tied = dict(MIRROR_TIES)
     rows = []
     for j, n in enumerate(I.names):
         row = {"name": n, "paper": PAPER_PARAMETERS[case.data][j], "ls": I.profile_reference[case.data].theta_final[j]}
         for model, e in case.models.items():
-            source = tied.get(n, n) if model == "mirror" else n
+            source = _source(model, n)
             row[model] = None if source not in e.names else {
                 "q": e.quantile(source), "err": e.quantile_errors[e.names.index(source)][1], "tied_to": (
                     source if source != n else None)}  # fmt: skip
@@ -52,7 +56,6 @@ def _check_rows(case, I: IdentifiabilityRecord) -> list[dict]:
     :class:`~bayestissue.analyses.evidence_check.CheckCase`): the paper's Table 1 value of each test the data set
     holds, our least squares on it, and each checked model's 5 / 50 / 95 % under the importance weights (a mirror
     model's tied parameter names its source). For a data set the nested runs leave without a posterior one can use."""
-    tied = dict(MIRROR_TIES)
     tests = [case.data] if case.data in PAPER_PARAMETERS else ["T1", "T2"]
     ls = I.profile_reference.get(case.data)
     extra = [n for c in case.checks.values() for n in c.names if n not in I.names]
@@ -62,7 +65,7 @@ def _check_rows(case, I: IdentifiabilityRecord) -> list[dict]:
         row = {"name": n, "paper": [None if j is None else PAPER_PARAMETERS[t][j] for t in tests],
                "ls": None if j is None or ls is None else ls.theta_final[j], "models": {}}  # fmt: skip
         for model, c in case.checks.items():
-            source = tied.get(n, n) if model != "full" else n
+            source = _source(model, n)
             row["models"][model] = None if source not in c.names else {
                 "q": c.quantiles[c.names.index(source)], "tied_to": source if source != n else None}  # fmt: skip
         rows.append(row)
@@ -205,7 +208,7 @@ def model_choice_context(
         if check_now.get(d, {}).get(m) != e.numbers_hash]  # fmt: skip
     quadrature = [] if check is None else [
         {"data": d, "model": m, "param": e.quadrature.param, "one_labelling": e.quadrature.one_labelling,
-         "text": f"{e.quadrature.text}, holding {e.quadrature.share:.2g} of the weight"}
+         "text": e.quadrature.summary()}
         for d, c in check.cases.items() for m, e in c.checks.items() if e.quadrature is not None]  # fmt: skip
     return {"record": rec, "cases": cases, "min_runs": EVIDENCE_MIN_RUNS, "p_min": EVIDENCE_P, "factor": FACTOR,
             "check": check, "check_stale": stale, "proposal_error": PROPOSAL_ERROR,
